@@ -1,0 +1,13 @@
+//! `engine::math`: the mathematics of the three techniques, in f64, with no Vulkan.
+//!
+//! Every GLSL function in `shaders-glsl/common` has its twin here and a GPU-vs-CPU test.
+//! The formulas follow DESIGN.md §3 (which restores the symbols the paper texts lost).
+
+pub mod isg;
+pub mod lobes;
+pub mod prefilter;
+pub mod quadrature;
+pub mod rng;
+pub mod sg;
+pub mod sh;
+pub mod shexp;

@@ -1,0 +1,1 @@
+//! Prefiltered environment maps (written with the foundation).

@@ -1,0 +1,2 @@
+pub use engine_blockers as blockers;
+pub use engine_math as math;
