@@ -1,0 +1,159 @@
+//! Equirectangular (lat-long) environment maps: the one direction convention of the engine.
+//!
+//! World space is Y-up. Texel (column i, row j) of a W×H map covers u ∈ [i/W, (i+1)/W),
+//! v ∈ [j/H, (j+1)/H); row 0 is the zenith (+Y). A direction is
+//! `(sin θ cos φ, cos θ, sin θ sin φ)` with `θ = π v` (polar angle from +Y) and `φ = 2π u`.
+//! `shaders-glsl/common/envmap.glsl` is the GLSL twin.
+
+use std::f64::consts::PI;
+
+/// Unit direction for texture coordinates (u, v) ∈ [0, 1]².
+pub fn latlong_direction(u: f64, v: f64) -> [f64; 3] {
+    let theta = PI * v;
+    let phi = 2.0 * PI * u;
+    let s = theta.sin();
+    [s * phi.cos(), theta.cos(), s * phi.sin()]
+}
+
+/// Texture coordinates (u ∈ [0, 1), v ∈ [0, 1]) of a direction (need not be normalized).
+pub fn latlong_uv(d: [f64; 3]) -> (f64, f64) {
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(f64::MIN_POSITIVE);
+    let y = (d[1] / len).clamp(-1.0, 1.0);
+    let theta = y.acos();
+    let mut phi = d[2].atan2(d[0]);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    ((phi / (2.0 * PI)).min(1.0 - 1e-12), theta / PI)
+}
+
+/// Exact solid angle of one texel in row `row` of a map with `width` × `height` texels.
+pub fn texel_solid_angle(row: usize, width: usize, height: usize) -> f64 {
+    let t0 = PI * row as f64 / height as f64;
+    let t1 = PI * (row + 1) as f64 / height as f64;
+    (2.0 * PI / width as f64) * (t0.cos() - t1.cos())
+}
+
+/// An RGB lat-long radiance map in linear units, row-major, row 0 at the zenith.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LatLongMap {
+    pub width: usize,
+    pub height: usize,
+    pub texels: Vec<[f32; 3]>,
+}
+
+impl LatLongMap {
+    /// A map with every texel equal to `radiance`.
+    pub fn constant(width: usize, height: usize, radiance: [f32; 3]) -> Self {
+        Self { width, height, texels: vec![radiance; width * height] }
+    }
+
+    pub fn texel(&self, col: usize, row: usize) -> [f32; 3] {
+        self.texels[row * self.width + col]
+    }
+
+    /// Direction through the centre of texel (col, row).
+    pub fn texel_direction(&self, col: usize, row: usize) -> [f64; 3] {
+        latlong_direction(
+            (col as f64 + 0.5) / self.width as f64,
+            (row as f64 + 0.5) / self.height as f64,
+        )
+    }
+
+    /// Nearest-texel lookup.
+    pub fn lookup_nearest(&self, d: [f64; 3]) -> [f32; 3] {
+        let (u, v) = latlong_uv(d);
+        let col = ((u * self.width as f64) as usize).min(self.width - 1);
+        let row = ((v * self.height as f64) as usize).min(self.height - 1);
+        self.texel(col, row)
+    }
+
+    /// Bilinear lookup (wrapping in u, clamped in v), matching a GPU sampler with
+    /// REPEAT in u and CLAMP_TO_EDGE in v.
+    pub fn lookup_bilinear(&self, d: [f64; 3]) -> [f64; 3] {
+        let (u, v) = latlong_uv(d);
+        let x = u * self.width as f64 - 0.5;
+        let y = (v * self.height as f64 - 0.5).clamp(0.0, (self.height - 1) as f64);
+        let x0 = x.floor();
+        let y0 = y.floor();
+        let (fx, fy) = (x - x0, y - y0);
+        let w = self.width as i64;
+        let c0 = (x0 as i64).rem_euclid(w) as usize;
+        let c1 = (x0 as i64 + 1).rem_euclid(w) as usize;
+        let r0 = y0 as usize;
+        let r1 = (r0 + 1).min(self.height - 1);
+        let mut out = [0.0; 3];
+        for (k, o) in out.iter_mut().enumerate() {
+            let a = self.texel(c0, r0)[k] as f64 * (1.0 - fx) + self.texel(c1, r0)[k] as f64 * fx;
+            let b = self.texel(c0, r1)[k] as f64 * (1.0 - fx) + self.texel(c1, r1)[k] as f64 * fx;
+            *o = a * (1.0 - fy) + b * fy;
+        }
+        out
+    }
+
+    /// Downsample by an integer box filter weighted by texel solid angle (keeps the integral).
+    pub fn downsample(&self, factor: usize) -> Self {
+        assert!(factor >= 1 && self.width % factor == 0 && self.height % factor == 0);
+        let (w, h) = (self.width / factor, self.height / factor);
+        let mut texels = vec![[0.0f32; 3]; w * h];
+        for row in 0..h {
+            for col in 0..w {
+                let mut acc = [0.0f64; 3];
+                let mut wsum = 0.0;
+                for sr in 0..factor {
+                    let r = row * factor + sr;
+                    let sa = texel_solid_angle(r, self.width, self.height);
+                    for sc in 0..factor {
+                        let t = self.texel(col * factor + sc, r);
+                        for k in 0..3 {
+                            acc[k] += t[k] as f64 * sa;
+                        }
+                        wsum += sa;
+                    }
+                }
+                texels[row * w + col] = acc.map(|a| (a / wsum) as f32);
+            }
+        }
+        Self { width: w, height: h, texels }
+    }
+
+    /// ∫ L(ω) dω per channel, by texel solid angles.
+    pub fn integral(&self) -> [f64; 3] {
+        let mut acc = [0.0; 3];
+        for row in 0..self.height {
+            let sa = texel_solid_angle(row, self.width, self.height);
+            for col in 0..self.width {
+                let t = self.texel(col, row);
+                for k in 0..3 {
+                    acc[k] += t[k] as f64 * sa;
+                }
+            }
+        }
+        acc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn direction_uv_round_trip() {
+        for &(u, v) in &[(0.1, 0.2), (0.75, 0.5), (0.99, 0.9), (0.5, 0.01)] {
+            let (u2, v2) = latlong_uv(latlong_direction(u, v));
+            assert!((u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12);
+        }
+        let up = latlong_direction(0.3, 0.0);
+        assert!((up[1] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn solid_angles_sum_to_sphere() {
+        let (w, h) = (64, 32);
+        let total: f64 = (0..h).map(|r| texel_solid_angle(r, w, h) * w as f64).sum();
+        assert!((total - 4.0 * PI).abs() < 1e-12);
+        let m = LatLongMap::constant(w, h, [2.0, 2.0, 2.0]);
+        assert!((m.integral()[0] - 8.0 * PI).abs() < 1e-9);
+        assert!((m.downsample(4).integral()[1] - 8.0 * PI).abs() < 1e-9);
+    }
+}
