@@ -309,7 +309,13 @@ pub fn isg_lut(lut: &IsgLut, theta: f64, phi: f64, lambda: f64) -> f64 {
 
 /// Normalized integral over the patch [θ0, θ1] × [φ0, φ1] by the four-corner rule
 /// (paper Sec. 4: `S(1,1) − S(0,1) − S(1,0) + S(0,0)`), for any evaluator of Ŝ.
-pub fn isg_patch(s_hat: impl Fn(f64, f64) -> f64, theta0: f64, theta1: f64, phi0: f64, phi1: f64) -> f64 {
+pub fn isg_patch(
+    s_hat: impl Fn(f64, f64) -> f64,
+    theta0: f64,
+    theta1: f64,
+    phi0: f64,
+    phi1: f64,
+) -> f64 {
     s_hat(theta1, phi1) - s_hat(theta0, phi1) - s_hat(theta1, phi0) + s_hat(theta0, phi0)
 }
 
@@ -465,8 +471,7 @@ mod tests {
                 t1,
                 1e-13,
             );
-            let exact =
-                isg_patch_integral(|t, p| isg_exact(t, p, lambda), lambda, t0, t1, p0, p1);
+            let exact = isg_patch_integral(|t, p| isg_exact(t, p, lambda), lambda, t0, t1, p0, p1);
             // Four-corner rule is exact for the exact Ŝ: agreement to quadrature accuracy.
             assert!((exact - direct).abs() < 1e-9 * isg_normalization(lambda), "{exact} {direct}");
             let approx = isg_patch_integral(|t, p| lut.eval(t, p, lambda), lambda, t0, t1, p0, p1);
