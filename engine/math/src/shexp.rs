@@ -319,12 +319,23 @@ impl OlTable {
         )
     }
 
-    /// `count` samples of a and b uniform in ‖f̂‖ over `[0, norm_max]` (for GPU tables).
-    pub fn resample_uniform(&self, count: usize) -> (Vec<f64>, Vec<f64>) {
+    /// The table resampled at `count ≥ 2` points uniform in ‖f̂‖ over `[0, norm_max]`: the layout
+    /// of the GPU table (`shaders-glsl/common/shexp.glsl`), so that [`exp_ol`] with the result is
+    /// the exact f64 twin of the shader's OL.
+    pub fn resampled(&self, count: usize) -> OlTable {
+        let count = count.max(2);
         let nm = self.norm_max();
-        (0..count)
-            .map(|s| self.lookup(nm * s as f64 / (count - 1) as f64))
-            .unzip()
+        let norms: Vec<f64> = (0..count)
+            .map(|s| nm * s as f64 / (count - 1) as f64)
+            .collect();
+        let (a, b) = norms.iter().map(|&x| self.lookup(x)).unzip();
+        OlTable {
+            n: self.n,
+            theta_stop: self.theta_stop,
+            norms,
+            a,
+            b,
+        }
     }
 }
 
@@ -536,6 +547,60 @@ pub fn exp_error_markdown(rows: &[ExpErrorStats], methods: &[ExpMethod]) -> Stri
         }
         s += "\n";
     }
+    s
+}
+
+/// Number of OL samples in the GPU table of `shaders-glsl/common/shexp.glsl`.
+pub const GLSL_OL_SAMPLES: usize = 64;
+
+/// The generated block of `shaders-glsl/common/shexp.glsl` for order 4: the sparse Γ (entries
+/// `j ≤ k`, packed `i | j << 8 | k << 16`, values halved on `j == k` as in [`ShTensor`]) and the OL
+/// table resampled uniformly in ‖f̂‖ ([`OlTable::resampled`]). A test checks that the shader holds
+/// exactly this text (drift check); regenerate with the ignored test `print_glsl_tables`.
+pub fn glsl_order4_tables(ctx: &ShExp) -> String {
+    assert_eq!(ctx.n(), 4, "the GLSL twin is order 4");
+    let t = &ctx.tensor;
+    let f32s = |v: f64| format!("{:.8e}", v as f32);
+    let mut s = String::from("// BEGIN GENERATED (engine-math shexp::glsl_order4_tables)\n");
+    s += &format!("const int SH4_GAMMA_COUNT = {};\n", t.entries.len());
+    s += &format!("const uint SH4_GAMMA_IJK[{}] = uint[](", t.entries.len());
+    for (q, e) in t.entries.iter().enumerate() {
+        if q % 8 == 0 {
+            s += "\n   ";
+        }
+        let packed = e.i as u32 | (e.j as u32) << 8 | (e.k as u32) << 16;
+        s += &format!(
+            " {packed}u{}",
+            if q + 1 < t.entries.len() { "," } else { "" }
+        );
+    }
+    s += ");\n";
+    s += &format!("const float SH4_GAMMA_V[{}] = float[](", t.entries.len());
+    for (q, e) in t.entries.iter().enumerate() {
+        if q % 6 == 0 {
+            s += "\n   ";
+        }
+        s += &format!(
+            " {}{}",
+            f32s(e.v),
+            if q + 1 < t.entries.len() { "," } else { "" }
+        );
+    }
+    s += ");\n";
+    let ol = ctx.ol.resampled(GLSL_OL_SAMPLES);
+    s += &format!("const int SH4_OL_COUNT = {GLSL_OL_SAMPLES};\n");
+    s += &format!("const float SH4_OL_NORM_MAX = {};\n", f32s(ol.norm_max()));
+    for (name, v) in [("SH4_OL_A", &ol.a), ("SH4_OL_B", &ol.b)] {
+        s += &format!("const float {name}[{GLSL_OL_SAMPLES}] = float[](");
+        for (q, x) in v.iter().enumerate() {
+            if q % 6 == 0 {
+                s += "\n   ";
+            }
+            s += &format!(" {}{}", f32s(*x), if q + 1 < v.len() { "," } else { "" });
+        }
+        s += ");\n";
+    }
+    s += "// END GENERATED\n";
     s
 }
 
@@ -774,6 +839,31 @@ mod tests {
         assert!(md.contains("PS*-2") && md.lines().count() == 2 + rows.len() / 2);
     }
 
+    #[test]
+    fn glsl_tables_match_generated() {
+        let ctx = ShExp::new(4);
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../shaders-glsl/common/shexp.glsl"
+        );
+        let text = std::fs::read_to_string(path).expect("shaders-glsl/common/shexp.glsl");
+        assert!(
+            text.contains(&glsl_order4_tables(&ctx)),
+            "shexp.glsl tables drifted from sh.rs/shexp.rs: regenerate with print_glsl_tables"
+        );
+        // The resampled OL table is the one the shader interpolates: uniform grid, same ends.
+        let r = ctx.ol.resampled(GLSL_OL_SAMPLES);
+        assert_eq!(r.norms.len(), GLSL_OL_SAMPLES);
+        assert!((r.norm_max() - ctx.ol.norm_max()).abs() < 1e-12);
+        assert_eq!((r.a[0], r.b[0]), (1.0, 1.0));
+    }
+
+    #[test]
+    #[ignore]
+    fn print_glsl_tables() {
+        print!("{}", glsl_order4_tables(&ShExp::new(4)));
+    }
+
     /// Measurements for the report (run with
     /// `cargo test --release -p engine-math shexp::tests::report -- --ignored --nocapture`).
     #[test]
@@ -794,8 +884,8 @@ mod tests {
                 ExpMethod::Ol,
                 ExpMethod::Hyb(0.5),
                 ExpMethod::Hyb(1.0),
+                ExpMethod::Hyb(0.25),
                 ExpMethod::Hyb(2.0),
-                ExpMethod::Hyb(ctx.ol.norm_max()),
             ];
             let rows = exp_error_table(&ctx, &methods, 3000, 40, 2.0, 77);
             println!("{}", exp_error_markdown(&rows, &methods));
