@@ -8,7 +8,7 @@
 //!   "version": 1,
 //!   "source_mesh": "assets/meshes/bunny.obj",
 //!   "mesh_hash": "fnv1a64:0123456789abcdef",
-//!   "settings": { "count": 64, "seed": 1, "grid_resolution": 24, "lookup_resolution": 64,
+//!   "settings": { "count": 64, "seed": 1, "grid_resolution": 24, "lookup_resolution": 48,
 //!                 "volume_samples": 96, "max_iterations": 40, "max_teleports": 12, "stall_ratio": 0.01 },
 //!   "stats": { "outside_sum": 1.23, "iterations": 17, "teleports_tried": 3, "teleports_accepted": 1 },
 //!   "spheres": [[cx, cy, cz, r], ...]

@@ -21,7 +21,12 @@
 //! 4. **Teleportation** (Cohen-Steiner et al. 2004) when an iteration lowers E by less than
 //!    `stall_ratio`: the cluster of maximal error is split at its farthest-apart pair of points and the
 //!    cluster of maximal overlap (share of its volume inside other spheres) is deleted; kept only if E
-//!    drops.
+//!    drops. A rejected split is not retried from the same state (the next-worst cluster is tried);
+//!    the fit stops after four rejections in a row or `max_teleports` trials.
+//!
+//! During clustering the centres are fixed, so each cluster's outside volume as a function of radius
+//! is tabulated once (a radial profile of shell outside-shares) and each candidate point costs one
+//! O(1) lookup.
 //!
 //! `V(S − T)` during the fit is estimated with a fixed set of points uniform in the unit ball (the same
 //! set for every sphere: common random numbers keep the objective smooth in the centre) looked up in a
@@ -70,7 +75,7 @@ impl Default for FitSettings {
             count: 64,
             seed: 1,
             grid_resolution: 24,
-            lookup_resolution: 64,
+            lookup_resolution: 48,
             volume_samples: 96,
             max_iterations: 40,
             max_teleports: 12,
@@ -190,6 +195,19 @@ fn unit_ball_points(count: usize, rng: &mut Pcg32) -> Vec<DVec3> {
         }
     }
     out
+}
+
+/// `n` nearly uniform unit vectors (Fibonacci / golden-angle spiral), deterministic.
+fn fibonacci_sphere(n: usize) -> Vec<DVec3> {
+    let golden = PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = golden * i as f64;
+            DVec3::new(r * phi.cos(), z, r * phi.sin())
+        })
+        .collect()
 }
 
 /// The sample points of T and their neighbour graph (shared by the fit and the k-means baseline).
@@ -335,6 +353,36 @@ struct Fitter<'a> {
     samples: &'a FitSamples,
     field: InsideField,
     ball: Vec<DVec3>,
+    /// Fixed directions (Fibonacci sphere) for the radial profiles.
+    directions: Vec<DVec3>,
+    /// Largest useful radius: the diagonal of the lookup grid.
+    max_radius: f64,
+}
+
+/// Outside volume of the balls around one fixed centre as a function of radius:
+/// `V(ρ) = ∫₀^ρ 4π s² f(s) ds` with f(s) the outside share of the shell of radius s (fixed
+/// directions), tabulated by the trapezoid rule. During clustering the centres are fixed and each
+/// point costs one O(1) lookup here instead of a full ball estimate.
+struct RadialProfile {
+    dr: f64,
+    cumulative: Vec<f64>,
+}
+
+impl RadialProfile {
+    const SHELLS: usize = 128;
+
+    fn volume(&self, r: f64) -> f64 {
+        let x = r / self.dr;
+        let last = self.cumulative.len() - 1;
+        if x >= last as f64 {
+            // Beyond the grid everything is outside: add the full shells.
+            let r_last = last as f64 * self.dr;
+            return self.cumulative[last] + ball_volume(r) - ball_volume(r_last);
+        }
+        let i = x as usize;
+        let t = x - i as f64;
+        self.cumulative[i] + (self.cumulative[i + 1] - self.cumulative[i]) * t
+    }
 }
 
 impl Fitter<'_> {
@@ -347,6 +395,23 @@ impl Fitter<'_> {
         ball_volume(r) * s / self.ball.len() as f64
     }
 
+    fn profile(&self, c: DVec3) -> RadialProfile {
+        let dr = self.max_radius / RadialProfile::SHELLS as f64;
+        let shell = |s: f64| {
+            let f = self.directions.iter().map(|d| self.field.outside(c + *d * s)).sum::<f64>();
+            4.0 * PI * s * s * f / self.directions.len() as f64
+        };
+        let mut cumulative = Vec::with_capacity(RadialProfile::SHELLS + 1);
+        cumulative.push(0.0);
+        let mut prev = shell(0.0);
+        for j in 1..=RadialProfile::SHELLS {
+            let cur = shell(j as f64 * dr);
+            cumulative.push(cumulative[j - 1] + 0.5 * dr * (prev + cur));
+            prev = cur;
+        }
+        RadialProfile { dr, cumulative }
+    }
+
     /// Step 2: flood-fill clustering from `centers`.
     fn cluster(&self, centers: &[DVec3]) -> Clusters {
         let pts = &self.samples.points;
@@ -355,32 +420,27 @@ impl Fitter<'_> {
         const NONE: u32 = u32::MAX;
         let mut assign = vec![NONE; n];
         let mut radii = vec![0.0; k];
-        let mut outside = vec![0.0; k];
-        let cost = |i: usize, p: usize, radii: &[f64], outside: &[f64]| {
+        let profiles: Vec<RadialProfile> = centers.iter().map(|&c| self.profile(c)).collect();
+        let cost = |i: usize, p: usize, radii: &[f64]| {
             let d = centers[i].distance(pts[p]);
             if d <= radii[i] {
                 0.0
             } else {
-                (self.outside_volume(centers[i], d) - outside[i]).max(0.0)
+                (profiles[i].volume(d) - profiles[i].volume(radii[i])).max(0.0)
             }
         };
         // Keys are non-negative f64: their bit patterns order like the values.
         let mut heap: BinaryHeap<Reverse<(u64, u32, u32)>> = BinaryHeap::new();
         let assign_point = |p: usize,
-                                i: usize,
-                                assign: &mut Vec<u32>,
-                                radii: &mut Vec<f64>,
-                                outside: &mut Vec<f64>,
-                                heap: &mut BinaryHeap<Reverse<(u64, u32, u32)>>| {
+                            i: usize,
+                            assign: &mut Vec<u32>,
+                            radii: &mut Vec<f64>,
+                            heap: &mut BinaryHeap<Reverse<(u64, u32, u32)>>| {
             assign[p] = i as u32;
-            let d = centers[i].distance(pts[p]);
-            if d > radii[i] {
-                radii[i] = d;
-                outside[i] = self.outside_volume(centers[i], d);
-            }
+            radii[i] = radii[i].max(centers[i].distance(pts[p]));
             for &q in self.samples.neighbors(p) {
                 if assign[q as usize] == NONE {
-                    let c = cost(i, q as usize, radii, outside);
+                    let c = cost(i, q as usize, radii);
                     heap.push(Reverse((c.to_bits(), q, i as u32)));
                 }
             }
@@ -394,7 +454,7 @@ impl Fitter<'_> {
                     _ => Some(p),
                 });
             if let Some(p) = seed {
-                assign_point(p, i, &mut assign, &mut radii, &mut outside, &mut heap);
+                assign_point(p, i, &mut assign, &mut radii, &mut heap);
             }
         }
         let mut next_unassigned = 0;
@@ -408,13 +468,13 @@ impl Fitter<'_> {
                 for &q in self.samples.neighbors(p) {
                     let i = assign[q as usize];
                     if i != NONE {
-                        let c = cost(i as usize, p, &radii, &outside);
+                        let c = cost(i as usize, p, &radii);
                         if c < best.0 || (c == best.0 && (i as usize) < best.1) {
                             best = (c, i as usize);
                         }
                     }
                 }
-                assign_point(p, best.1, &mut assign, &mut radii, &mut outside, &mut heap);
+                assign_point(p, best.1, &mut assign, &mut radii, &mut heap);
             }
             // Points not reachable through the graph: attach to the cheapest cluster, then flood on.
             while next_unassigned < n && assign[next_unassigned] != NONE {
@@ -425,15 +485,16 @@ impl Fitter<'_> {
             }
             let p = next_unassigned;
             let i = (0..k)
-                .map(|i| (cost(i, p, &radii, &outside), i))
+                .map(|i| (cost(i, p, &radii), i))
                 .fold((f64::INFINITY, 0), |b, c| if c.0 < b.0 { c } else { b })
                 .1;
-            assign_point(p, i, &mut assign, &mut radii, &mut outside, &mut heap);
+            assign_point(p, i, &mut assign, &mut radii, &mut heap);
         }
         let mut members = vec![Vec::new(); k];
         for (p, &i) in assign.iter().enumerate() {
             members[i as usize].push(p as u32);
         }
+        let outside = (0..k).map(|i| self.outside_volume(centers[i], radii[i])).collect();
         Clusters { centers: centers.to_vec(), radii, outside, members }
     }
 
@@ -471,13 +532,21 @@ impl Fitter<'_> {
     }
 
     /// Step 4: split the worst cluster, delete the most overlapped one. Returns the new centres.
-    fn teleport(&self, state: &Clusters) -> Option<Vec<DVec3>> {
+    /// Clusters in `skip` (splits already rejected for this state) are not split again.
+    fn teleport(&self, state: &Clusters, skip: &[usize]) -> Option<(usize, Vec<DVec3>)> {
         let k = state.centers.len();
         if k < 2 {
             return None;
         }
         let pts = &self.samples.points;
-        let worst = (0..k).fold(0, |b, i| if state.outside[i] > state.outside[b] { i } else { b });
+        let worst = (0..k)
+            .filter(|i| !skip.contains(i) && state.members[*i].len() >= 2)
+            .map(|i| (state.outside[i], i))
+            .fold(None, |b: Option<(f64, usize)>, c| match b {
+                Some(b) if b.0 >= c.0 => Some(b),
+                _ => Some(c),
+            })?
+            .1;
         // Overlap: share of each sphere's volume inside any other sphere (same ball samples).
         let overlap = |j: usize| {
             let inside = self
@@ -496,9 +565,6 @@ impl Fitter<'_> {
             .fold((f64::NEG_INFINITY, usize::MAX), |b, c| if c.0 > b.0 { c } else { b })
             .1;
         let members = &state.members[worst];
-        if members.len() < 2 {
-            return None;
-        }
         let farthest_from = |c: DVec3| {
             members
                 .iter()
@@ -510,7 +576,7 @@ impl Fitter<'_> {
         let mut centers = state.centers.clone();
         centers[worst] = p1;
         centers[victim] = p2;
-        Some(centers)
+        Some((worst, centers))
     }
 }
 
@@ -540,15 +606,20 @@ fn fit_spheres_with_samples(
     }
     let (lo, hi) = mesh.bounds().ok_or(BlockerError::EmptyMesh)?;
     let mut rng = Pcg32::new(settings.seed, 0x5f17);
+    let field = InsideField::new(tree, lo, hi, settings.lookup_resolution);
+    let max_radius = (field.h * (DVec3::new(field.dims[0] as f64, field.dims[1] as f64, field.dims[2] as f64) - 1.0)).length();
     let fitter = Fitter {
         samples,
-        field: InsideField::new(tree, lo, hi, settings.lookup_resolution),
+        field,
         ball: unit_ball_points(settings.volume_samples, &mut rng),
+        directions: fibonacci_sphere(64),
+        max_radius,
     };
     let init = samples.farthest_points(settings.count, &mut rng);
     let mut best = fitter.step(&init);
     let mut best_e = best.total();
-    let (mut tried, mut accepted, mut failures_in_a_row) = (0, 0, 0);
+    let (mut tried, mut accepted) = (0, 0);
+    let mut rejected_splits: Vec<usize> = Vec::new();
     let mut iteration = 0;
     let mut report = |iteration: usize, e: f64, tried: usize, accepted: usize, message: String| {
         progress(&FitProgress { iteration, outside_sum: e, teleports_tried: tried, teleports_accepted: accepted, message })
@@ -562,17 +633,18 @@ fn fit_spheres_with_samples(
         if e < best_e {
             best = next;
             best_e = e;
+            rejected_splits.clear();
         }
         if improved_enough {
             report(iteration, best_e, tried, accepted, "lloyd step".into());
             continue;
         }
         // Stalled: try a teleportation.
-        if tried >= settings.max_teleports || failures_in_a_row >= 3 {
+        if tried >= settings.max_teleports || rejected_splits.len() >= 4 {
             report(iteration, best_e, tried, accepted, "converged".into());
             break;
         }
-        let Some(centers) = fitter.teleport(&best) else {
+        let Some((split, centers)) = fitter.teleport(&best, &rejected_splits) else {
             report(iteration, best_e, tried, accepted, "converged (nothing to teleport)".into());
             break;
         };
@@ -585,10 +657,10 @@ fn fit_spheres_with_samples(
             best = trial;
             best_e = e;
             accepted += 1;
-            failures_in_a_row = 0;
+            rejected_splits.clear();
             report(iteration, best_e, tried, accepted, "teleport accepted".into());
         } else {
-            failures_in_a_row += 1;
+            rejected_splits.push(split);
             report(iteration, best_e, tried, accepted, format!("teleport rejected (E would be {e:.4})"));
         }
     }

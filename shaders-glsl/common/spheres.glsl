@@ -1,0 +1,60 @@
+// Sphere primitives for blocker culling and hierarchy cuts (f32 twins of engine_blockers::geom).
+// A sphere is vec4(center.xyz, radius).
+#ifndef SPHERES_GLSL
+#define SPHERES_GLSL
+
+const float SPHERES_PI = 3.14159265358979323846;
+
+// Angle between two non-zero vectors via atan2 (accurate near 0 and pi, where acos(dot) loses digits).
+// Twin: geom::angle_between.
+float spheres_angle_between(vec3 a, vec3 b) {
+    return atan(length(cross(a, b)), dot(a, b));
+}
+
+// Half-angle of the cone of directions from p that hit sphere s (SHEXP Eq. 34, asin(r/d)), written
+// atan2(r, sqrt((d - r)(d + r))) to keep its digits as r/d -> 1. Inside or on the sphere: pi.
+// Twin: geom::subtended_half_angle.
+float sphere_subtended_half_angle(vec3 p, vec4 s) {
+    float d = distance(p, s.xyz);
+    if (d <= s.w) {
+        return SPHERES_PI;
+    }
+    return atan(s.w, sqrt((d - s.w) * (d + s.w)));
+}
+
+// Whether sphere s meets the one-sided cone (apex, unit axis, half_angle): the sphere covers the cap
+// of directions of half-angle psi around its centre direction beta, and meets the cone iff
+// beta <= half_angle + psi (ISG Sec. 5 culling). Twin: geom::cone_intersects_sphere.
+bool cone_intersects_sphere(vec3 apex, vec3 axis, float half_angle, vec4 s) {
+    vec3 v = s.xyz - apex;
+    if (length(v) <= s.w) {
+        return true;
+    }
+    float psi = sphere_subtended_half_angle(apex, s);
+    return spheres_angle_between(axis, v) <= half_angle + psi;
+}
+
+// SHEXP Eq. 36: s subtends less than theta_max from every point of the receiver sphere.
+// Twin: geom::subtends_less_than.
+bool sphere_subtends_less_than(vec4 receiver, vec4 s, float theta_max) {
+    return s.w < sin(theta_max) * (distance(receiver.xyz, s.xyz) - receiver.w);
+}
+
+// Smallest sphere containing spheres a and b (SHEXP Sec. 6.3 pair bound). The radius is raised to the
+// measured |c - c_i| + r_i so rounding never leaves a child outside. Twin: geom::merge_spheres.
+vec4 merge_spheres(vec4 a, vec4 b) {
+    float d = distance(a.xyz, b.xyz);
+    if (d + b.w <= a.w) {
+        return a;
+    }
+    if (d + a.w <= b.w) {
+        return b;
+    }
+    float r = 0.5 * (d + a.w + b.w);
+    float t = clamp((r - a.w) / d, 0.0, 1.0);
+    vec3 c = a.xyz + (b.xyz - a.xyz) * t;
+    r = max(r, max(distance(c, a.xyz) + a.w, distance(c, b.xyz) + b.w));
+    return vec4(c, r);
+}
+
+#endif // SPHERES_GLSL
