@@ -1,2 +1,9 @@
+//! The engine: soft shadows from sphere-set blockers under environment and spherical lights.
+//!
+//! Layers (dependencies point down): `gpu` (the only raw Vulkan) → `math` (f64, no Vulkan) →
+//! `scene` (plain data) → `blockers` → `passes` → `renderer`.
+
 pub use engine_blockers as blockers;
 pub use engine_math as math;
+
+pub mod gpu;

@@ -1,0 +1,59 @@
+//! `engine::gpu`: the only module that touches raw Vulkan.
+//!
+//! A [`Gpu`] owns the instance, the chosen device, one graphics+compute queue, the gpu-allocator
+//! allocator and the validation messenger. Resources ([`Buffer`], [`Image`]) are `{ raw, desc,
+//! allocation }` values destroyed explicitly by value; [`Gpu::shutdown`] turns leaked allocations
+//! and validation errors into an error, so tests fail on either.
+
+mod context;
+mod pipeline;
+mod recorder;
+mod resources;
+mod shader;
+mod spirv;
+pub mod testing;
+
+pub use context::{default_shader_root, AdapterInfo, Gpu, GpuDesc, MemoryStats, ValidationMode};
+pub use pipeline::{Binding, ComputePipeline, GraphicsPipeline, GraphicsPipelineDesc};
+pub use recorder::{Frame, PassTiming, Recorder};
+pub use resources::{Buffer, BufferDesc, Image, ImageDesc, ImageFormat, Memory};
+pub use shader::{ShaderCompiler, ShaderModuleInfo, ShaderStage};
+pub use spirv::{DescriptorKind, ReflectedBinding, Reflection};
+
+/// Errors of the GPU layer.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("could not load the Vulkan loader (libvulkan.so.1): {0}. Install libvulkan1 and a driver (mesa-vulkan-drivers for lavapipe), or run `cargo xtask demo`, which installs them")]
+    Loader(String),
+    #[error("no usable Vulkan device: {0}")]
+    NoDevice(String),
+    #[error("Vulkan call {call} failed: {result:?}")]
+    Vk { call: &'static str, result: ash::vk::Result },
+    #[error("memory allocation '{name}' failed: {source}")]
+    Alloc {
+        name: String,
+        #[source]
+        source: gpu_allocator::AllocationError,
+    },
+    #[error("shader {path}: {message}")]
+    Shader { path: String, message: String },
+    #[error("pipeline {pipeline}: {message}")]
+    Binding { pipeline: String, message: String },
+    #[error("{0}")]
+    Other(String),
+    #[error("GPU teardown found problems:\n{0}")]
+    Teardown(String),
+}
+
+pub type Result<T, E = GpuError> = std::result::Result<T, E>;
+
+/// Map a `VkResult` error onto [`GpuError::Vk`] naming the call.
+pub(crate) trait VkCheck<T> {
+    fn vk(self, call: &'static str) -> Result<T>;
+}
+
+impl<T> VkCheck<T> for std::result::Result<T, ash::vk::Result> {
+    fn vk(self, call: &'static str) -> Result<T> {
+        self.map_err(|result| GpuError::Vk { call, result })
+    }
+}
