@@ -108,9 +108,8 @@ impl SphereBvh {
             s.validate(i)?;
         }
         let n = spheres.len();
-        let (lo, hi) = spheres
-            .iter()
-            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), s| {
+        let (lo, hi) =
+            spheres.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), s| {
                 (lo.min(s.center), hi.max(s.center))
             });
         let extent = hi - lo;
@@ -120,7 +119,12 @@ impl SphereBvh {
         let internal = n - 1;
         let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * n - 1);
         for _ in 0..internal {
-            nodes.push(BvhNode { sphere: Sphere::new(DVec3::ZERO, 0.0), children: None, parent: None, leaf_sphere: None });
+            nodes.push(BvhNode {
+                sphere: Sphere::new(DVec3::ZERO, 0.0),
+                children: None,
+                parent: None,
+                leaf_sphere: None,
+            });
         }
         let mut leaf_of_sphere = vec![0u32; n];
         for (i, &(_, s)) in keys.iter().enumerate() {
@@ -196,7 +200,8 @@ impl SphereBvh {
     fn refit_internal(&mut self) {
         for &v in &self.refit_order {
             if let Some([a, b]) = self.nodes[v as usize].children {
-                self.nodes[v as usize].sphere = merge_spheres(&self.nodes[a as usize].sphere, &self.nodes[b as usize].sphere);
+                self.nodes[v as usize].sphere =
+                    merge_spheres(&self.nodes[a as usize].sphere, &self.nodes[b as usize].sphere);
             }
         }
     }
@@ -418,7 +423,8 @@ mod tests {
         let bvh = SphereBvh::build(&spheres).unwrap();
         for _ in 0..300 {
             let p = DVec3::new(rng.uniform(-6.0, 6.0), rng.uniform(-6.0, 6.0), rng.uniform(-6.0, 6.0));
-            let brute: Vec<u32> = (0..spheres.len() as u32).filter(|&i| spheres[i as usize].contains_point(p)).collect();
+            let brute: Vec<u32> =
+                (0..spheres.len() as u32).filter(|&i| spheres[i as usize].contains_point(p)).collect();
             assert_eq!(bvh.spheres_containing(p), brute);
             assert_eq!(bvh.any_contains(p), !brute.is_empty());
             let cone = Cone::new(p, DVec3::from_array(rng.unit_vector()), rng.uniform(0.0, 0.8));

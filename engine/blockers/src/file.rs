@@ -145,7 +145,10 @@ impl SphereSetFile {
 pub enum CacheOutcome {
     Hit(Vec<Sphere>),
     /// Fitted (again), with the reason.
-    Fitted { spheres: Vec<Sphere>, reason: String },
+    Fitted {
+        spheres: Vec<Sphere>,
+        reason: String,
+    },
 }
 
 impl CacheOutcome {
@@ -185,7 +188,15 @@ mod tests {
     use glam::DVec3;
 
     fn small_settings() -> FitSettings {
-        FitSettings { count: 4, grid_resolution: 6, lookup_resolution: 12, volume_samples: 32, max_iterations: 4, max_teleports: 1, ..Default::default() }
+        FitSettings {
+            count: 4,
+            grid_resolution: 6,
+            lookup_resolution: 12,
+            volume_samples: 32,
+            max_iterations: 4,
+            max_teleports: 1,
+            ..Default::default()
+        }
     }
 
     #[test]

@@ -273,16 +273,12 @@ impl FitSamples {
             }
         }
         // Surface point ↔ the (up to 8) interior cell centres around it.
-        for s in 0..surface_count {
-            let q = (points[s] - lo) / g - 0.5;
+        for (s, point) in points.iter().enumerate().take(surface_count) {
+            let q = (*point - lo) / g - 0.5;
             let base = q.floor();
             for corner in 0..8 {
                 let c = base + DVec3::new((corner & 1) as f64, ((corner >> 1) & 1) as f64, (corner >> 2) as f64);
-                if c.min_element() < 0.0
-                    || c.x >= dims[0] as f64
-                    || c.y >= dims[1] as f64
-                    || c.z >= dims[2] as f64
-                {
+                if c.min_element() < 0.0 || c.x >= dims[0] as f64 || c.y >= dims[1] as f64 || c.z >= dims[2] as f64 {
                     continue;
                 }
                 let b = grid_point[cell_id(c.x as usize, c.y as usize, c.z as usize)];
@@ -447,12 +443,10 @@ impl Fitter<'_> {
         };
         // Seeds: the nearest free point to each centre (distinct even for duplicate centres).
         for (i, c) in centers.iter().enumerate() {
-            let seed = (0..n)
-                .filter(|&p| assign[p] == NONE)
-                .fold(None, |b: Option<usize>, p| match b {
-                    Some(b) if pts[b].distance_squared(*c) <= pts[p].distance_squared(*c) => Some(b),
-                    _ => Some(p),
-                });
+            let seed = (0..n).filter(|&p| assign[p] == NONE).fold(None, |b: Option<usize>, p| match b {
+                Some(b) if pts[b].distance_squared(*c) <= pts[p].distance_squared(*c) => Some(b),
+                _ => Some(p),
+            });
             if let Some(p) = seed {
                 assign_point(p, i, &mut assign, &mut radii, &mut heap);
             }
@@ -566,10 +560,13 @@ impl Fitter<'_> {
             .1;
         let members = &state.members[worst];
         let farthest_from = |c: DVec3| {
-            members
-                .iter()
-                .map(|&p| pts[p as usize])
-                .fold(c, |b, p| if p.distance_squared(c) > b.distance_squared(c) { p } else { b })
+            members.iter().map(|&p| pts[p as usize]).fold(c, |b, p| {
+                if p.distance_squared(c) > b.distance_squared(c) {
+                    p
+                } else {
+                    b
+                }
+            })
         };
         let p1 = farthest_from(state.centers[worst]);
         let p2 = farthest_from(p1);
@@ -607,7 +604,8 @@ fn fit_spheres_with_samples(
     let (lo, hi) = mesh.bounds().ok_or(BlockerError::EmptyMesh)?;
     let mut rng = Pcg32::new(settings.seed, 0x5f17);
     let field = InsideField::new(tree, lo, hi, settings.lookup_resolution);
-    let max_radius = (field.h * (DVec3::new(field.dims[0] as f64, field.dims[1] as f64, field.dims[2] as f64) - 1.0)).length();
+    let max_radius =
+        (field.h * (DVec3::new(field.dims[0] as f64, field.dims[1] as f64, field.dims[2] as f64) - 1.0)).length();
     let fitter = Fitter {
         samples,
         field,
@@ -622,7 +620,13 @@ fn fit_spheres_with_samples(
     let mut rejected_splits: Vec<usize> = Vec::new();
     let mut iteration = 0;
     let mut report = |iteration: usize, e: f64, tried: usize, accepted: usize, message: String| {
-        progress(&FitProgress { iteration, outside_sum: e, teleports_tried: tried, teleports_accepted: accepted, message })
+        progress(&FitProgress {
+            iteration,
+            outside_sum: e,
+            teleports_tried: tried,
+            teleports_accepted: accepted,
+            message,
+        })
     };
     report(0, best_e, 0, 0, "initial clustering".into());
     while iteration < settings.max_iterations {
@@ -664,12 +668,7 @@ fn fit_spheres_with_samples(
             report(iteration, best_e, tried, accepted, format!("teleport rejected (E would be {e:.4})"));
         }
     }
-    let spheres = best
-        .centers
-        .iter()
-        .zip(&best.radii)
-        .map(|(&c, &r)| Sphere::new(c, r))
-        .collect();
+    let spheres = best.centers.iter().zip(&best.radii).map(|(&c, &r)| Sphere::new(c, r)).collect();
     Ok(FitResult {
         spheres,
         outside_sum: best_e,
@@ -702,7 +701,16 @@ fn kmeans_with_samples(samples: &FitSamples, settings: &FitSettings) -> Result<V
     let mut assign = vec![0usize; pts.len()];
     for _ in 0..settings.max_iterations.max(1) {
         for (a, p) in assign.iter_mut().zip(pts) {
-            *a = (0..k).fold(0, |b, i| if p.distance_squared(centers[i]) < p.distance_squared(centers[b]) { i } else { b });
+            *a = (0..k).fold(
+                0,
+                |b, i| {
+                    if p.distance_squared(centers[i]) < p.distance_squared(centers[b]) {
+                        i
+                    } else {
+                        b
+                    }
+                },
+            );
         }
         let mut sum = vec![DVec3::ZERO; k];
         let mut count = vec![0usize; k];
@@ -718,7 +726,11 @@ fn kmeans_with_samples(samples: &FitSamples, settings: &FitSettings) -> Result<V
                 // Empty cluster: reseed at the point farthest from its centre.
                 let far = (0..pts.len()).fold(0, |b, p| {
                     let d = |q: usize| pts[q].distance_squared(centers[assign[q]]);
-                    if d(p) > d(b) { p } else { b }
+                    if d(p) > d(b) {
+                        p
+                    } else {
+                        b
+                    }
                 });
                 pts[far]
             };
@@ -906,4 +918,163 @@ pub fn comparison_markdown(rows: &[ComparisonRow]) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{box_mesh, uv_sphere};
+    use std::path::Path;
+
+    fn quick(count: usize) -> FitSettings {
+        FitSettings {
+            count,
+            grid_resolution: 10,
+            lookup_resolution: 20,
+            volume_samples: 48,
+            max_iterations: 12,
+            max_teleports: 4,
+            ..FitSettings::default()
+        }
+    }
+
+    fn assert_vertices_inside(mesh: &Mesh, spheres: &[Sphere]) {
+        for (i, v) in mesh.positions().iter().enumerate() {
+            // Epsilon 0: each radius is the maximum of the very distances tested here (same
+            // `DVec3::distance` expression), so containment is exact in floating point.
+            assert!(spheres.iter().any(|s| s.center.distance(*v) <= s.radius), "vertex {i} {v:?} outside every sphere");
+        }
+    }
+
+    #[test]
+    fn bunny_with_holes_is_bounded() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/meshes/bunny.obj");
+        let mesh = Mesh::load_obj(&path).unwrap();
+        let fit = fit_spheres(&mesh, &quick(16), &mut |_| {}).unwrap();
+        assert_eq!(fit.spheres.len(), 16);
+        // The open base must not break the inside test: a real interior is found.
+        assert!(fit.interior_samples > 50, "interior samples {}", fit.interior_samples);
+        assert_vertices_inside(&mesh, &fit.spheres);
+        let q = evaluate(&mesh, &fit.spheres, 4000, 1).unwrap();
+        // Vertices and midpoints are bounded exactly; points between them can poke out of a sphere
+        // by less than a triangle's size: the full-quality fit measures ~98 % coverage; 90 % is a
+        // floor that a broken bound (e.g. a missed cluster) would fail.
+        assert!(q.surface_coverage > 0.9, "coverage {}", q.surface_coverage);
+        assert!(q.e_union.is_finite() && q.e_union > 0.0);
+        let km = fit_kmeans(&mesh, &quick(16)).unwrap();
+        assert_vertices_inside(&mesh, &km);
+    }
+
+    #[test]
+    fn outside_volume_falls_as_count_grows() {
+        // An elongated box: one sphere wastes most of its volume, many small ones hug the faces.
+        let mesh = box_mesh(DVec3::ZERO, DVec3::new(4.0, 1.0, 1.0));
+        let mut last = f64::INFINITY;
+        for count in [1, 4, 16] {
+            let fit = fit_spheres(&mesh, &quick(count), &mut |_| {}).unwrap();
+            assert_vertices_inside(&mesh, &fit.spheres);
+            let q = evaluate(&mesh, &fit.spheres, 6000, 7).unwrap();
+            // Steps of 4× in count change E by far more than the ~3 % Monte Carlo error (6000
+            // samples), so a strict decrease by 3 standard errors is required.
+            assert!(q.e_union + 3.0 * q.e_union_std_error < last, "count {count}: E {} after {last}", q.e_union);
+            last = q.e_union;
+        }
+        // A single bounding sphere of a 4×1×1 box: its radius is at least half the diagonal
+        // √18/2, so E ≥ (4/3 π (√18/2)³ − 4) / 4 ≈ 8.99.
+        assert!(last < 8.99);
+    }
+
+    #[test]
+    fn evaluate_matches_closed_form_for_a_sphere_in_a_sphere() {
+        // T = ball of radius 1 (fine UV sphere), S = concentric ball of radius 1.5: outside volume
+        // 4/3 π (1.5³ − 1), E = 1.5³ − 1 = 2.375 (minus the polygonization's volume deficit).
+        let mesh = uv_sphere(DVec3::ZERO, 1.0, 48, 96);
+        let q = evaluate(&mesh, &[Sphere::new(DVec3::ZERO, 1.5)], 20000, 3).unwrap();
+        // The 48×96 UV sphere has ~0.2 % less volume than the ball; Monte Carlo error ~1 %:
+        // 4 standard errors plus the deficit.
+        assert!(
+            (q.e_union - 2.375).abs() < 4.0 * q.e_union_std_error + 0.02,
+            "{} ± {}",
+            q.e_union,
+            q.e_union_std_error
+        );
+        assert!((q.object_volume - 4.0 / 3.0 * PI).abs() < 0.05 * 4.0);
+        assert_eq!(q.surface_coverage, 1.0);
+        // Two identical spheres: the union is unchanged, Eq. 35's sum doubles.
+        let s = Sphere::new(DVec3::ZERO, 1.5);
+        let q2 = evaluate(&mesh, &[s, s], 20000, 3).unwrap();
+        assert!((q2.e_union - q.e_union).abs() < 4.0 * q.e_union_std_error);
+        assert!((q2.e_sum - 2.0 * q2.e_union).abs() < 1e-12 * q2.e_sum);
+    }
+
+    #[test]
+    fn deterministic_and_seeded() {
+        let mesh = uv_sphere(DVec3::ZERO, 1.0, 8, 12);
+        let a = fit_spheres(&mesh, &quick(6), &mut |_| {}).unwrap();
+        let b = fit_spheres(&mesh, &quick(6), &mut |_| {}).unwrap();
+        assert_eq!(a.spheres, b.spheres);
+        let c = fit_spheres(&mesh, &FitSettings { seed: 99, ..quick(6) }, &mut |_| {}).unwrap();
+        assert_ne!(a.spheres, c.spheres);
+    }
+
+    #[test]
+    fn bad_input_gives_errors() {
+        let mesh = uv_sphere(DVec3::ZERO, 1.0, 4, 6);
+        assert!(matches!(fit_spheres(&mesh, &quick(0), &mut |_| {}), Err(BlockerError::ZeroCount)));
+        assert!(matches!(
+            fit_spheres(&mesh, &quick(100_000), &mut |_| {}),
+            Err(BlockerError::CountTooLarge { count: 100_000, .. })
+        ));
+        assert!(matches!(fit_kmeans(&mesh, &quick(100_000)), Err(BlockerError::CountTooLarge { .. })));
+        let bad = FitSettings { stall_ratio: f64::NAN, ..quick(2) };
+        assert!(matches!(fit_spheres(&mesh, &bad, &mut |_| {}), Err(BlockerError::InvalidSettings(_))));
+        let bad = FitSettings { grid_resolution: 0, ..quick(2) };
+        assert!(matches!(fit_spheres(&mesh, &bad, &mut |_| {}), Err(BlockerError::InvalidSettings(_))));
+        assert!(matches!(evaluate(&mesh, &[], 100, 1), Err(BlockerError::NoSpheres)));
+        let nan = Sphere::new(DVec3::new(f64::NAN, 0.0, 0.0), 1.0);
+        assert!(matches!(evaluate(&mesh, &[nan], 100, 1), Err(BlockerError::InvalidSphere { index: 0, .. })));
+        // Count equal to the number of samples: legal, every sphere gets a point (radius 0 allowed).
+        let tiny = box_mesh(DVec3::ZERO, DVec3::ONE);
+        let samples = FitSamples::new(&tiny, &WindingTree::new(&tiny), 2).points.len();
+        let fit = fit_spheres(&tiny, &FitSettings { grid_resolution: 2, ..quick(samples) }, &mut |_| {}).unwrap();
+        assert_eq!(fit.spheres.len(), samples);
+        assert_vertices_inside(&tiny, &fit.spheres);
+        // Duplicate vertices (coincident points) are harmless.
+        let mut pos = tiny.positions().to_vec();
+        pos.extend_from_slice(tiny.positions());
+        let dup = Mesh::new(pos, tiny.triangles().to_vec()).unwrap();
+        let fit = fit_spheres(&dup, &quick(4), &mut |_| {}).unwrap();
+        assert_vertices_inside(&dup, &fit.spheres);
+    }
+
+    #[test]
+    fn radial_profile_matches_ball_estimate() {
+        // The clustering's radial profile and the update's ball estimate measure the same V(S − T):
+        // compare them on the unit ball T for concentric and offset spheres.
+        let mesh = uv_sphere(DVec3::ZERO, 1.0, 24, 48);
+        let tree = WindingTree::new(&mesh);
+        let samples = FitSamples::new(&mesh, &tree, 8);
+        let (lo, hi) = mesh.bounds().unwrap();
+        let field = InsideField::new(&tree, lo, hi, 32);
+        let max_radius = 10.0;
+        let mut rng = Pcg32::new(1, 1);
+        let f = Fitter {
+            samples: &samples,
+            field,
+            ball: unit_ball_points(4096, &mut rng),
+            directions: fibonacci_sphere(256),
+            max_radius,
+        };
+        for (c, r) in [(DVec3::ZERO, 1.5), (DVec3::new(0.5, 0.2, 0.0), 1.2), (DVec3::new(2.0, 0.0, 0.0), 0.8)] {
+            let exact_concentric = if c == DVec3::ZERO { Some(4.0 / 3.0 * PI * (r * r * r - 1.0)) } else { None };
+            let a = f.profile(c).volume(r);
+            let b = f.outside_volume(c, r);
+            // Ball estimate with 4096 points: ~1.5 % relative noise; the profile's trapezoid rule
+            // with 128 shells and the grid's one-cell blur at the surface: ~1 %. 5 % binds both.
+            assert!((a - b).abs() < 0.05 * b.max(0.1), "c={c:?} r={r}: profile {a} ball {b}");
+            if let Some(e) = exact_concentric {
+                assert!((a - e).abs() < 0.05 * e, "profile {a} exact {e}");
+            }
+        }
+    }
 }

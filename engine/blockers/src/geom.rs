@@ -126,18 +126,13 @@ pub fn merge_spheres(a: &Sphere, b: &Sphere) -> Sphere {
     let r = 0.5 * (d + a.radius + b.radius);
     let t = ((r - a.radius) / d).clamp(0.0, 1.0);
     let c = a.center + (b.center - a.center) * t;
-    let r = r
-        .max(c.distance(a.center) + a.radius)
-        .max(c.distance(b.center) + b.radius);
+    let r = r.max(c.distance(a.center) + a.radius).max(c.distance(b.center) + b.radius);
     Sphere::new(c, r)
 }
 
 /// Radius of the smallest sphere centred at `c` that contains every sphere in `spheres`.
 pub fn enclosing_radius(c: DVec3, spheres: &[Sphere]) -> f64 {
-    spheres
-        .iter()
-        .map(|s| c.distance(s.center) + s.radius)
-        .fold(0.0, f64::max)
+    spheres.iter().map(|s| c.distance(s.center) + s.radius).fold(0.0, f64::max)
 }
 
 /// A near-minimal bounding sphere of `spheres` (SHEXP §6.3: centre initialized at the mean of the
@@ -207,11 +202,8 @@ pub fn nelder_mead3(f: impl Fn(DVec3) -> f64, x0: DVec3, step: f64, max_evals: u
             simplex[3] = xr;
             values[3] = fr;
         } else {
-            let xc = if fr < values[3] {
-                centroid + 0.5 * (xr - centroid)
-            } else {
-                centroid + 0.5 * (worst - centroid)
-            };
+            let xc =
+                if fr < values[3] { centroid + 0.5 * (xr - centroid) } else { centroid + 0.5 * (worst - centroid) };
             let fc = eval(xc);
             evals += 1;
             if fc < values[3].min(fr) {
@@ -343,8 +335,7 @@ mod tests {
         let mut rng = Pcg32::new(9, 2);
         for _ in 0..50 {
             let n = 1 + (rng.next_u32() % 8) as usize;
-            let spheres: Vec<_> =
-                (0..n).map(|_| Sphere::new(rand_vec(&mut rng, 1.0), rng.uniform(0.0, 0.5))).collect();
+            let spheres: Vec<_> = (0..n).map(|_| Sphere::new(rand_vec(&mut rng, 1.0), rng.uniform(0.0, 0.5))).collect();
             let b = bounding_sphere_of_spheres(&spheres).unwrap();
             for s in &spheres {
                 assert!(b.contains_sphere(s, 1e-12));

@@ -85,7 +85,11 @@ fn lloyd(centers: &[DVec3], k: usize) -> Vec<usize> {
             } else {
                 let far = (0..n).fold(0, |b, j| {
                     let d = |j: usize| centers[j].distance_squared(seeds[assign[j]]);
-                    if d(j) > d(b) { j } else { b }
+                    if d(j) > d(b) {
+                        j
+                    } else {
+                        b
+                    }
                 });
                 seeds[i] = centers[far];
                 assign[far] = i;
@@ -104,7 +108,9 @@ fn lloyd(centers: &[DVec3], k: usize) -> Vec<usize> {
         for &a in &assign {
             count[a] += 1;
         }
-        let Some(empty) = (0..k).find(|&i| count[i] == 0) else { break };
+        let Some(empty) = (0..k).find(|&i| count[i] == 0) else {
+            break;
+        };
         let largest = (0..k).fold(0, |b, i| if count[i] > count[b] { i } else { b });
         let member = assign.iter().position(|&a| a == largest).unwrap_or(0);
         assign[member] = empty;
@@ -137,7 +143,9 @@ impl SphereHierarchy {
             for c in 0..k {
                 let kids: Vec<usize> = current.iter().zip(&assign).filter(|(_, &a)| a == c).map(|(&v, _)| v).collect();
                 let kid_spheres: Vec<Sphere> = kids.iter().map(|&v| spheres_tmp[v]).collect();
-                let Some(bound) = bounding_sphere_of_spheres(&kid_spheres) else { continue };
+                let Some(bound) = bounding_sphere_of_spheres(&kid_spheres) else {
+                    continue;
+                };
                 next.push(spheres_tmp.len());
                 spheres_tmp.push(bound);
                 children_tmp.push(kids);
@@ -219,7 +227,9 @@ impl SphereHierarchy {
         for v in (0..self.nodes.len() as u32).rev() {
             let mut kids = self.children(v);
             if let Some(first) = kids.next() {
-                let bound = kids.fold(self.nodes[first as usize].sphere, |acc, c| merge_spheres(&acc, &self.nodes[c as usize].sphere));
+                let bound = kids.fold(self.nodes[first as usize].sphere, |acc, c| {
+                    merge_spheres(&acc, &self.nodes[c as usize].sphere)
+                });
                 self.nodes[v as usize].sphere = bound;
             }
         }

@@ -31,7 +31,8 @@ impl Mesh {
         let mesh = Self { positions, triangles };
         let extent = mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
         let total_area: f64 = (0..mesh.triangles.len()).map(|t| mesh.triangle_area(t)).sum();
-        if !(total_area > 1e-24 * extent * extent) {
+        // Written so that a NaN area also fails.
+        if total_area.partial_cmp(&(1e-24 * extent * extent)) != Some(std::cmp::Ordering::Greater) {
             return Err(BlockerError::DegenerateMesh);
         }
         Ok(mesh)
@@ -47,16 +48,13 @@ impl Mesh {
         for model in &models {
             let base = positions.len() as u32;
             let m = &model.mesh;
-            positions.extend(
-                m.positions.chunks_exact(3).map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)),
-            );
+            positions.extend(m.positions.chunks_exact(3).map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)));
             triangles.extend(m.indices.chunks_exact(3).map(|t| [base + t[0], base + t[1], base + t[2]]));
         }
         Self::new(positions, triangles).map_err(|e| match e {
-            BlockerError::EmptyMesh => BlockerError::Obj {
-                path: path.display().to_string(),
-                message: "no triangles (empty mesh)".into(),
-            },
+            BlockerError::EmptyMesh => {
+                BlockerError::Obj { path: path.display().to_string(), message: "no triangles (empty mesh)".into() }
+            }
             other => other,
         })
     }
@@ -187,11 +185,8 @@ impl<'a> WindingTree<'a> {
             }
         }
         let centroid = if area > 0.0 { weighted / area } else { 0.5 * (lo + hi) };
-        let radius = order
-            .iter()
-            .flat_map(|&t| mesh.triangle(t as usize))
-            .map(|v| v.distance(centroid))
-            .fold(0.0, f64::max);
+        let radius =
+            order.iter().flat_map(|&t| mesh.triangle(t as usize)).map(|v| v.distance(centroid)).fold(0.0, f64::max);
         let index = self.nodes.len() as u32;
         self.nodes.push(WindingNode {
             centroid,
@@ -250,9 +245,7 @@ pub fn uv_sphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Mesh 
         let theta = PI * i as f64 / rings as f64;
         for j in 0..segments {
             let phi = 2.0 * PI * j as f64 / segments as f64;
-            positions.push(
-                center + radius * DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()),
-            );
+            positions.push(center + radius * DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
         }
     }
     positions.push(center - DVec3::Y * radius);

@@ -39,8 +39,18 @@ struct Args {
     compare: Vec<usize>,
 }
 
-fn main() -> Result<()> {
-    let args = Args::parse();
+fn main() -> std::process::ExitCode {
+    // Print the error chain on one line, without anyhow's backtrace (this is a user-facing tool).
+    match run(Args::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
     let t0 = Instant::now();
     let mesh = Mesh::load_obj(&args.mesh).with_context(|| format!("loading {}", args.mesh.display()))?;
     eprintln!(
