@@ -108,6 +108,23 @@ fn run(args: Args) -> Result<()> {
             100.0 * q.surface_coverage
         );
     }
+    let bvh = engine_blockers::bvh::SphereBvh::build(&fit.spheres)?;
+    let hierarchy = engine_blockers::hierarchy::SphereHierarchy::build(&fit.spheres)?;
+    let root = &hierarchy.nodes()[0];
+    eprintln!(
+        "LBVH: {} nodes; 4-ary hierarchy: {} nodes, mean branching {:.2}, {} levels; SHEXP cut at θ_max = 25° \
+         from 2 root radii away: {} spheres",
+        bvh.nodes().len(),
+        hierarchy.nodes().len(),
+        hierarchy.mean_branching(),
+        root.level + 1,
+        hierarchy
+            .cut(
+                &engine_blockers::Sphere::new(root.sphere.center + glam::DVec3::X * 2.0 * root.sphere.radius, 0.0),
+                25f64.to_radians()
+            )
+            .len()
+    );
     let output = args.output.unwrap_or_else(|| args.mesh.with_extension("spheres.json"));
     SphereSetFile::from_fit(&args.mesh.display().to_string(), &mesh, &settings, &fit)
         .save(&output)
