@@ -1,0 +1,196 @@
+//! Triangle meshes from OBJ (tobj) and glTF 2.0 (gltf), validated and repaired.
+//!
+//! Input rules (each violation is an error naming the file, or a documented repair):
+//! - non-finite positions or out-of-range indices: error;
+//! - zero-area triangles: dropped, with a warning (a mesh left with none is an error);
+//! - missing or non-finite normals: recomputed, area-weighted, with a warning.
+
+use super::{Instance, Material, Result, SceneError};
+use glam::{Mat4, Vec3};
+use std::path::Path;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub indices: Vec<u32>,
+}
+
+impl Mesh {
+    /// Validate and repair (see the module doc). `origin` names the source in messages.
+    pub fn new(origin: &Path, name: &str, positions: Vec<Vec3>, normals: Option<Vec<Vec3>>, indices: Vec<u32>) -> Result<Self> {
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(SceneError::invalid(origin, format!("mesh '{name}': vertex {i} has a non-finite position {:?}", positions[i])));
+        }
+        if indices.len() % 3 != 0 {
+            return Err(SceneError::invalid(origin, format!("mesh '{name}': index count {} is not a multiple of 3", indices.len())));
+        }
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(SceneError::invalid(
+                origin,
+                format!("mesh '{name}': index {bad} out of range ({} vertices)", positions.len()),
+            ));
+        }
+        let mut kept = Vec::with_capacity(indices.len());
+        let mut dropped = 0;
+        for t in indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+            let area2 = (b - a).cross(c - a).length();
+            let scale = (b - a).length_squared().max((c - a).length_squared()).max(f32::MIN_POSITIVE);
+            if area2 <= 1e-12 * scale {
+                dropped += 1;
+            } else {
+                kept.extend_from_slice(t);
+            }
+        }
+        if dropped > 0 {
+            log::warn!("{}: mesh '{name}': dropped {dropped} zero-area triangle(s)", origin.display());
+        }
+        if kept.is_empty() {
+            return Err(SceneError::invalid(origin, format!("mesh '{name}' has no triangles with nonzero area")));
+        }
+        let normals = match normals {
+            Some(n) if n.len() == positions.len() && n.iter().all(|v| v.is_finite() && v.length_squared() > 0.0) => {
+                n.into_iter().map(|v| v.normalize()).collect()
+            }
+            Some(_) => {
+                log::warn!("{}: mesh '{name}': invalid normals, recomputed", origin.display());
+                compute_normals(&positions, &kept)
+            }
+            None => compute_normals(&positions, &kept),
+        };
+        Ok(Self { name: name.to_string(), positions, normals, indices: kept })
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// Area-weighted vertex normals (unit length; +Y for vertices of no triangle).
+pub fn compute_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| i as usize);
+        let f = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+        n[a] += f;
+        n[b] += f;
+        n[c] += f;
+    }
+    n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect()
+}
+
+fn check_exists(path: &Path) -> Result<()> {
+    if !path.exists() {
+        return Err(SceneError::NotFound { path: path.to_path_buf() });
+    }
+    Ok(())
+}
+
+/// Load every object of an OBJ file as one mesh.
+pub fn load_obj(path: &Path) -> Result<Mesh> {
+    check_exists(path)?;
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, _materials) =
+        tobj::load_obj(path, &opts).map_err(|e| SceneError::invalid(path, format!("not a valid OBJ file: {e}")))?;
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut indices = Vec::new();
+    let mut all_normals = true;
+    for m in &models {
+        let base = positions.len() as u32;
+        let p = &m.mesh.positions;
+        positions.extend(p.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        if m.mesh.normals.len() == p.len() {
+            normals.extend(m.mesh.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        } else {
+            all_normals = false;
+        }
+        let nverts = (p.len() / 3) as u32;
+        for &i in &m.mesh.indices {
+            if i >= nverts {
+                return Err(SceneError::invalid(path, format!("object '{}': index {i} out of range ({nverts} vertices)", m.name)));
+            }
+            indices.push(base + i);
+        }
+    }
+    if positions.is_empty() {
+        return Err(SceneError::invalid(path, "no vertices (not an OBJ mesh?)"));
+    }
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    Mesh::new(path, &name, positions, all_normals.then_some(normals), indices)
+}
+
+/// What a glTF file contributes to a scene.
+#[derive(Clone, Debug, Default)]
+pub struct GltfScene {
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub instances: Vec<Instance>,
+}
+
+/// Load a glTF 2.0 file (.gltf or .glb): the default scene's node hierarchy with transforms, every
+/// triangle primitive as a mesh, and base colour / metallic / roughness factors as materials.
+/// `material_base` offsets the material indices (materials are appended to a scene's list).
+pub fn load_gltf(path: &Path, material_base: usize) -> Result<GltfScene> {
+    check_exists(path)?;
+    let (doc, buffers, _images) =
+        gltf::import(path).map_err(|e| SceneError::invalid(path, format!("not a valid glTF file: {e}")))?;
+    let mut out = GltfScene::default();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        out.materials.push(Material::from_metallic_roughness(
+            Vec3::new(r, g, b),
+            pbr.metallic_factor(),
+            pbr.roughness_factor(),
+        ));
+    }
+    let default_material = out.materials.len();
+    out.materials.push(Material::diffuse(Vec3::splat(0.8)));
+    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| SceneError::invalid(path, "no scene"))?;
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    let mut visited = 0usize;
+    while let Some((node, parent)) = stack.pop() {
+        visited += 1;
+        if visited > 1_000_000 {
+            return Err(SceneError::invalid(path, "node hierarchy too deep or cyclic"));
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(SceneError::invalid(path, format!("node {} has a non-finite transform", node.index())));
+        }
+        if let Some(mesh) = node.mesh() {
+            for (pi, prim) in mesh.primitives().enumerate() {
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    log::warn!("{}: mesh {} primitive {pi}: mode {:?} skipped", path.display(), mesh.index(), prim.mode());
+                    continue;
+                }
+                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+                let Some(pos) = reader.read_positions() else {
+                    return Err(SceneError::invalid(path, format!("mesh {} primitive {pi} has no positions", mesh.index())));
+                };
+                let positions: Vec<Vec3> = pos.map(Vec3::from).collect();
+                let normals = reader.read_normals().map(|n| n.map(Vec3::from).collect());
+                let indices: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None => (0..positions.len() as u32).collect(),
+                };
+                let name = format!("{}#{pi}", mesh.name().unwrap_or("mesh"));
+                out.meshes.push(Mesh::new(path, &name, positions, normals, indices)?);
+                out.instances.push(Instance {
+                    mesh: out.meshes.len() - 1,
+                    transform: world,
+                    material: material_base + prim.material().index().unwrap_or(default_material),
+                });
+            }
+        }
+        stack.extend(node.children().map(|c| (c, world)));
+    }
+    if out.meshes.is_empty() {
+        return Err(SceneError::invalid(path, "no triangle meshes in the default scene"));
+    }
+    Ok(out)
+}
