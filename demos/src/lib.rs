@@ -1,1 +1,139 @@
+//! Scene builders for the demos and tests: the default bunny scene and analytic test scenes.
+//! (chess, cloth and battle arrive with their issues.)
 
+use engine::math::envmap::LatLongMap;
+use engine::scene::{load_environment, load_obj, Camera, Instance, Material, Mesh, Scene};
+use glam::{Mat4, Vec3};
+use std::path::{Path, PathBuf};
+
+/// The project's `assets/` folder (`ENGINE_ASSETS` overrides).
+pub fn assets_dir() -> PathBuf {
+    std::env::var_os("ENGINE_ASSETS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets"))
+}
+
+/// Scenes `--scene` accepts.
+pub const SCENES: &[&str] = &["bunny", "furnace", "sphere"];
+
+/// A square ground plane of half-size `half` at y = 0, tessellated `n` × `n` (per-vertex shading
+/// needs vertices), normal +Y.
+pub fn ground_plane(half: f32, n: u32) -> Mesh {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let x = -half + 2.0 * half * i as f32 / n as f32;
+            let z = -half + 2.0 * half * j as f32 / n as f32;
+            positions.push(Vec3::new(x, 0.0, z));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+            indices.extend_from_slice(&[a, c, b, b, c, d]);
+        }
+    }
+    let normals = vec![Vec3::Y; positions.len()];
+    Mesh { name: "ground".into(), positions, normals, indices }
+}
+
+/// A UV sphere of radius 1 with `stacks` × `2·stacks` quads.
+pub fn uv_sphere(stacks: u32) -> Mesh {
+    let slices = 2 * stacks;
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for j in 0..=stacks {
+        let theta = std::f32::consts::PI * j as f32 / stacks as f32;
+        for i in 0..=slices {
+            let phi = 2.0 * std::f32::consts::PI * i as f32 / slices as f32;
+            positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+        }
+    }
+    for j in 0..stacks {
+        for i in 0..slices {
+            let a = j * (slices + 1) + i;
+            let (b, c, d) = (a + 1, a + slices + 1, a + slices + 2);
+            if j != 0 {
+                indices.extend_from_slice(&[a, b, c]);
+            }
+            if j != stacks - 1 {
+                indices.extend_from_slice(&[b, d, c]);
+            }
+        }
+    }
+    let normals = positions.clone();
+    Mesh { name: "sphere".into(), positions, normals, indices }
+}
+
+/// The default scene: the Stanford bunny (scaled to unit height) on a ground plane under the
+/// courtyard environment (CC0, Poly Haven).
+pub fn bunny_scene(env: Option<&Path>) -> anyhow::Result<Scene> {
+    let assets = assets_dir();
+    let bunny = load_obj(&assets.join("meshes/bunny.obj"))?;
+    let env_path = env.map(Path::to_path_buf).unwrap_or_else(|| assets.join("envmaps/courtyard.exr"));
+    let environment = load_environment(&env_path)?;
+    let (lo, hi) = bunny.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
+    let scale = 1.0 / (hi.y - lo.y);
+    let centre = 0.5 * (lo + hi);
+    let transform = Mat4::from_scale(Vec3::splat(scale)) * Mat4::from_translation(Vec3::new(-centre.x, -lo.y, -centre.z));
+    Ok(Scene {
+        meshes: vec![bunny, ground_plane(2.0, 32)],
+        materials: vec![
+            Material::glossy(Vec3::new(0.7, 0.68, 0.62), 0.15, 200.0),
+            Material::diffuse(Vec3::new(0.55, 0.55, 0.55)),
+        ],
+        instances: vec![
+            Instance { mesh: 0, transform, material: 0 },
+            Instance { mesh: 1, transform: Mat4::IDENTITY, material: 1 },
+        ],
+        environment,
+        environment_intensity: 1.0,
+        camera: Camera { eye: Vec3::new(0.0, 0.9, 2.4), target: Vec3::new(0.0, 0.4, 0.0), fov_y_degrees: 40.0 },
+    })
+}
+
+/// Furnace: a Lambertian plane of albedo ρ under a constant environment L, looked at from above;
+/// every covered pixel must shade to ρL.
+pub fn furnace_scene(albedo: f32, radiance: f32) -> Scene {
+    Scene {
+        meshes: vec![ground_plane(1.0, 4)],
+        materials: vec![Material::diffuse(Vec3::splat(albedo))],
+        instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
+        environment: LatLongMap::constant(64, 32, [radiance; 3]),
+        environment_intensity: 1.0,
+        camera: Camera { eye: Vec3::new(0.0, 1.5, 0.01), target: Vec3::ZERO, fov_y_degrees: 40.0 },
+    }
+}
+
+/// A finely tessellated diffuse sphere under a smooth environment (a sky gradient): per-vertex
+/// and per-pixel shading must agree.
+pub fn sphere_scene(stacks: u32) -> Scene {
+    let (w, h) = (64, 32);
+    let texels = (0..w * h)
+        .map(|i| {
+            let v = ((i / w) as f32 + 0.5) / h as f32;
+            let up = (std::f32::consts::PI * v).cos();
+            [0.6 + 0.5 * up, 0.7 + 0.4 * up, 1.0 + 0.2 * up].map(|c| c.max(0.05))
+        })
+        .collect();
+    Scene {
+        meshes: vec![uv_sphere(stacks)],
+        materials: vec![Material::diffuse(Vec3::new(0.8, 0.6, 0.4))],
+        instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
+        environment: LatLongMap { width: w, height: h, texels },
+        environment_intensity: 1.0,
+        camera: Camera { eye: Vec3::new(0.0, 0.8, 3.0), target: Vec3::ZERO, fov_y_degrees: 45.0 },
+    }
+}
+
+/// Build a scene by name.
+pub fn build_scene(name: &str, env: Option<&Path>) -> anyhow::Result<Scene> {
+    match name {
+        "bunny" => bunny_scene(env),
+        "furnace" => Ok(furnace_scene(0.5, 1.0)),
+        "sphere" => Ok(sphere_scene(64)),
+        other => anyhow::bail!("unknown scene '{other}' (available: {})", SCENES.join(", ")),
+    }
+}

@@ -7,3 +7,20 @@ pub use engine_blockers as blockers;
 pub use engine_math as math;
 
 pub mod gpu;
+
+pub mod output;
+pub mod passes;
+pub mod renderer;
+pub mod scene;
+
+
+/// The engine's error at its outer boundary.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Gpu(#[from] gpu::GpuError),
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
+    #[error(transparent)]
+    Output(#[from] output::OutputError),
+}

@@ -210,9 +210,8 @@ impl Gpu {
                 vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
             )
             .message_type(
-                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                // Not PERFORMANCE: images stay in GENERAL layout by design (see resources.rs).
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
             )
             .pfn_user_callback(Some(debug_callback))
             .user_data(&*log as *const ValidationLog as *mut c_void);

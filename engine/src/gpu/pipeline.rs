@@ -155,18 +155,8 @@ impl PipelineCore {
                 }
             }
         }
-        for g in given {
-            if !self.bindings.iter().any(|b| b.name == g.name()) {
-                return Err(GpuError::Binding {
-                    pipeline: self.name.clone(),
-                    message: format!(
-                        "resource '{}' was given but the shader has no such binding (it has: {})",
-                        g.name(),
-                        self.bindings.iter().map(|b| b.name.as_str()).collect::<Vec<_>>().join(", ")
-                    ),
-                });
-            }
-        }
+        // Resources the shader does not use are ignored: the optimizer strips unused declarations
+        // from shared includes. A misspelt name still fails, as the binding it meant is missing.
         Ok(())
     }
 

@@ -1,0 +1,132 @@
+//! `demo`: render a scene headless (EXR + PNG + per-pass GPU times), or open the viewer.
+
+use anyhow::Context;
+use clap::Parser;
+use engine::gpu::{Gpu, GpuDesc};
+use engine::renderer::{RenderSettings, Renderer};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
+struct Args {
+    /// Scene: bunny (default), furnace, sphere.
+    #[arg(long, default_value = "bunny")]
+    scene: String,
+    /// Shading technique: none.
+    #[arg(long, default_value = "none")]
+    technique: String,
+    /// Shade per vertex (interpolated) instead of per pixel.
+    #[arg(long)]
+    per_vertex: bool,
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Environment map (.exr or .hdr) instead of the scene's.
+    #[arg(long)]
+    env: Option<PathBuf>,
+    /// Exposure multiplier before tone mapping.
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Frames to render (times are reported as the median over them).
+    #[arg(long, default_value_t = 5)]
+    frames: u32,
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Output file stem (<out>/<name>.exr and .png).
+    #[arg(long, default_value = "default")]
+    name: String,
+    /// Use the Vulkan adapter whose name contains this text.
+    #[arg(long)]
+    device: Option<String>,
+    /// Report device memory before and after the frames (and allocations made by steady frames).
+    #[arg(long)]
+    memory: bool,
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> anyhow::Result<()> {
+    let args = Args::parse();
+    let scene = demos::build_scene(&args.scene, args.env.as_deref())?;
+    let gpu = Gpu::new(&GpuDesc { device_name: args.device.clone(), ..GpuDesc::default() })?;
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        technique: args.technique.clone(),
+        per_vertex: args.per_vertex,
+        exposure: args.exposure,
+    };
+    eprintln!("preparing scene '{}' with technique '{}' at {}x{}...", args.scene, args.technique, args.width, args.height);
+    let t0 = std::time::Instant::now();
+    let mut renderer = Renderer::new(&gpu, &scene, settings)?;
+    eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
+    let result = render_frames(&gpu, &mut renderer, &args);
+    renderer.destroy(&gpu);
+    gpu.shutdown()?;
+    result
+}
+
+fn render_frames(gpu: &Gpu, renderer: &mut Renderer, args: &Args) -> anyhow::Result<()> {
+    let frames = args.frames.max(1);
+    let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
+    let mut after_first = None;
+    for f in 0..frames {
+        let timings = renderer.render(gpu)?;
+        if f == 0 {
+            after_first = Some(gpu.memory_stats());
+        }
+        for t in timings {
+            match per_pass.iter_mut().find(|(n, _)| *n == t.name) {
+                Some((_, v)) => v.push(t.ms),
+                None => per_pass.push((t.name, vec![t.ms])),
+            }
+        }
+    }
+    let after_last = gpu.memory_stats();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let (w, h) = (renderer.settings.width, renderer.settings.height);
+    let hdr = renderer.read_radiance(gpu)?;
+    let bad = hdr.iter().filter(|v| !v.is_finite()).count();
+    if bad > 0 {
+        anyhow::bail!("{bad} non-finite values in the rendered image");
+    }
+    let exr = args.out.join(format!("{}.exr", args.name));
+    let png = args.out.join(format!("{}.png", args.name));
+    engine::output::write_exr(&exr, w, h, &hdr)?;
+    engine::output::write_png(&png, w, h, &renderer.read_ldr(gpu)?)?;
+    println!("wrote {} and {}", exr.display(), png.display());
+    println!("per-pass GPU time on {} (median of {frames} frames, {w}x{h}):", gpu.info.name);
+    let mut total = 0.0;
+    for (name, mut v) in per_pass {
+        v.sort_by(|a, b| a.total_cmp(b));
+        let med = v[v.len() / 2];
+        total += med;
+        println!("  {name:<24} {med:>10.3} ms");
+    }
+    println!("  {:<24} {total:>10.3} ms", "total");
+    if args.memory {
+        let first = after_first.unwrap_or_default();
+        let last = after_last;
+        println!(
+            "device memory after the first frame: {:.2} MiB in {} allocations ({:.2} MiB reserved in blocks)",
+            first.allocated_bytes as f64 / 1048576.0,
+            first.live_allocations,
+            first.reserved_bytes as f64 / 1048576.0
+        );
+        println!(
+            "allocations made by the {} steady frames after it: {} (live allocations {} -> {})",
+            frames - 1,
+            last.allocations_made - first.allocations_made,
+            first.live_allocations,
+            last.live_allocations
+        );
+    }
+    Ok(())
+}

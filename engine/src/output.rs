@@ -1,0 +1,57 @@
+//! Images out: linear OpenEXR and tone-mapped PNG.
+
+use std::path::Path;
+
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {message}")]
+pub struct OutputError {
+    pub path: String,
+    pub message: String,
+}
+
+fn err(path: &Path, message: impl ToString) -> OutputError {
+    OutputError { path: path.display().to_string(), message: message.to_string() }
+}
+
+/// Write RGBA32F texels (row-major, top row first) as a linear RGB OpenEXR file (f32 channels).
+pub fn write_exr(path: &Path, width: u32, height: u32, rgba: &[f32]) -> Result<(), OutputError> {
+    if rgba.len() != (width * height * 4) as usize {
+        return Err(err(path, format!("{} floats for a {width}x{height} RGBA image", rgba.len())));
+    }
+    exr::prelude::write_rgb_file(path, width as usize, height as usize, |x, y| {
+        let i = (y * width as usize + x) * 4;
+        (rgba[i], rgba[i + 1], rgba[i + 2])
+    })
+    .map_err(|e| err(path, e))
+}
+
+/// Write RGBA8 texels as an sRGB PNG.
+pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), OutputError> {
+    if rgba.len() != (width * height * 4) as usize {
+        return Err(err(path, format!("{} bytes for a {width}x{height} RGBA8 image", rgba.len())));
+    }
+    let file = std::fs::File::create(path).map_err(|e| err(path, e))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut w = enc.write_header().map_err(|e| err(path, e))?;
+    w.write_image_data(rgba).map_err(|e| err(path, e))
+}
+
+/// Read an 8-bit RGBA (or RGB) PNG: (width, height, RGBA8 bytes).
+pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), OutputError> {
+    let file = std::fs::File::open(path).map_err(|e| err(path, e))?;
+    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    dec.set_transformations(png::Transformations::EXPAND);
+    let mut reader = dec.read_info().map_err(|e| err(path, e))?;
+    let mut buf = vec![0; reader.output_buffer_size().ok_or_else(|| err(path, "image too large"))?];
+    let info = reader.next_frame(&mut buf).map_err(|e| err(path, e))?;
+    buf.truncate(info.buffer_size());
+    let rgba = match info.color_type {
+        png::ColorType::Rgba => buf,
+        png::ColorType::Rgb => buf.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
+        other => return Err(err(path, format!("unsupported PNG colour type {other:?}"))),
+    };
+    Ok((info.width, info.height, rgba))
+}

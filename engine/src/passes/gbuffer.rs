@@ -1,0 +1,80 @@
+//! `gbuffer` pass (shaders-glsl/gbuffer): raster into depth, world position (w = material + 1,
+//! 0 = background), normal, and interpolated per-vertex radiance.
+
+use crate::gpu::{Binding, Gpu, GraphicsPipeline, GraphicsPipelineDesc, Image, ImageDesc, ImageFormat, Recorder, Result};
+use crate::renderer::GpuScene;
+
+/// The G-buffer every technique reads.
+pub struct GBuffer {
+    pub position: Image,
+    pub normal: Image,
+    pub vertex_radiance: Image,
+    pub depth: Image,
+}
+
+impl GBuffer {
+    pub fn new(gpu: &Gpu, width: u32, height: u32) -> Result<Self> {
+        let t = |f| ImageDesc::target(width, height, f);
+        let position = gpu.create_image("gbuffer-position", t(ImageFormat::Rgba32f))?;
+        let normal = gpu.create_image("gbuffer-normal", t(ImageFormat::Rgba32f));
+        let vertex_radiance = gpu.create_image("gbuffer-vertex-radiance", t(ImageFormat::Rgba32f));
+        let depth = gpu.create_image("gbuffer-depth", t(ImageFormat::Depth32f));
+        match (normal, vertex_radiance, depth) {
+            (Ok(normal), Ok(vertex_radiance), Ok(depth)) => Ok(Self { position, normal, vertex_radiance, depth }),
+            (n, v, d) => {
+                gpu.destroy_image(position);
+                let mut err = None;
+                for r in [n, v, d] {
+                    match r {
+                        Ok(i) => gpu.destroy_image(i),
+                        Err(e) => err = err.or(Some(e)),
+                    }
+                }
+                Err(err.unwrap_or_else(|| crate::gpu::GpuError::Other("G-buffer creation failed".into())))
+            }
+        }
+    }
+    pub fn destroy(self, gpu: &Gpu) {
+        gpu.destroy_image(self.position);
+        gpu.destroy_image(self.normal);
+        gpu.destroy_image(self.vertex_radiance);
+        gpu.destroy_image(self.depth);
+    }
+}
+
+pub struct GBufferPass {
+    pipeline: GraphicsPipeline,
+}
+
+impl GBufferPass {
+    pub fn new(gpu: &Gpu) -> Result<Self> {
+        Ok(Self {
+            pipeline: gpu.create_graphics_pipeline(&GraphicsPipelineDesc {
+                vertex: "gbuffer/gbuffer.vert",
+                fragment: "gbuffer/gbuffer.frag",
+                defines: &[],
+                color_formats: &[ImageFormat::Rgba32f, ImageFormat::Rgba32f, ImageFormat::Rgba32f],
+                depth_format: Some(ImageFormat::Depth32f),
+            })?,
+        })
+    }
+    pub fn record(&self, rec: &mut Recorder, scene: &GpuScene, gbuffer: &GBuffer) -> Result<()> {
+        rec.begin_pass("gbuffer");
+        rec.draw_indexed(
+            &self.pipeline,
+            &[
+                Binding::buffer("WorldVertices", &scene.world_vertices),
+                Binding::buffer("FrameBuf", &scene.frame),
+                Binding::buffer("VertexRadiance", &scene.vertex_radiance),
+            ],
+            &[],
+            &[&gbuffer.position, &gbuffer.normal, &gbuffer.vertex_radiance],
+            Some(&gbuffer.depth),
+            &scene.indices,
+            scene.index_count,
+        )
+    }
+    pub fn destroy(self, gpu: &Gpu) {
+        gpu.destroy_graphics_pipeline(self.pipeline);
+    }
+}

@@ -1,0 +1,7 @@
+//! `engine::passes`: one file per pass, each with the shader folder of the same name.
+
+pub mod gbuffer;
+pub mod layout;
+pub mod shade;
+pub mod skin;
+pub mod tonemap;

@@ -1,0 +1,26 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Vertex pulling from the world-space vertex buffer; also interpolates per-vertex radiance.
+#include "../common/scene.glsl"
+layout(std430, binding = 0) readonly buffer WorldVertices { Vertex world[]; };
+layout(std430, binding = 1) readonly buffer FrameBuf { FrameData frame; };
+layout(std430, binding = 2) readonly buffer VertexRadiance { vec4 vertex_radiance[]; };
+layout(location = 0) out vec3 out_position;
+layout(location = 1) out vec3 out_normal;
+layout(location = 2) flat out float out_material;
+layout(location = 3) out vec3 out_radiance;
+
+void main() {
+    Vertex v = world[gl_VertexIndex];
+    vec3 d = v.position.xyz - frame.eye.xyz;
+    float x = dot(d, frame.right.xyz) / frame.right.w;
+    float y = dot(d, frame.up.xyz) / frame.up.w;
+    float z = dot(d, frame.forward.xyz);
+    float n = frame.forward.w, f = frame.params.x;
+    // Vulkan clip space: y down, depth (z − n) f / ((f − n) z) in [0, 1].
+    gl_Position = vec4(x, -y, (z - n) * f / (f - n), z);
+    out_position = v.position.xyz;
+    out_normal = v.normal.xyz;
+    out_material = v.normal.w;
+    out_radiance = vertex_radiance[gl_VertexIndex].rgb;
+}

@@ -1,0 +1,30 @@
+// Per-pixel target: one invocation per G-buffer pixel; background pixels show the environment.
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(binding = 3, rgba32f) uniform readonly image2D gbuf_position;
+layout(binding = 4, rgba32f) uniform readonly image2D gbuf_normal;
+layout(binding = 5, rgba32f) uniform writeonly image2D radiance;
+
+vec3 camera_ray(ivec2 px) {
+    vec2 ndc = (vec2(px) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
+    return normalize(frame.forward.xyz + ndc.x * frame.right.w * frame.right.xyz - ndc.y * frame.up.w * frame.up.xyz);
+}
+
+void main() {
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(px), frame.size.xy))) return;
+    vec4 p = imageLoad(gbuf_position, px);
+    vec3 result;
+    if (p.w < 0.5) {
+        result = environment_radiance(camera_ray(px));
+    } else {
+        ShadePoint sp;
+        sp.position = p.xyz;
+        sp.normal = imageLoad(gbuf_normal, px).xyz;
+        sp.view = normalize(frame.eye.xyz - p.xyz);
+        sp.material = materials[uint(p.w - 0.5)];
+        result = shade_point(sp);
+    }
+    // No NaN or inf may reach an image.
+    if (any(isnan(result)) || any(isinf(result))) result = vec3(0.0);
+    imageStore(radiance, px, vec4(result, 1.0));
+}
