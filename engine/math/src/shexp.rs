@@ -155,21 +155,13 @@ fn factored_series(tensor: &ShTensor, x: &[f64], p: usize) -> Vec<f64> {
     }
     let mut odd_rest = vec![0.0; c];
     let mut fact = 1.0;
-    let x2 = if p >= 2 {
-        tensor.square(x)
-    } else {
-        vec![0.0; c]
-    };
+    let x2 = if p >= 2 { tensor.square(x) } else { vec![0.0; c] };
     let mut pow = x2.clone(); // x^{2j}, j = 1
     for k in 2..=p {
         fact *= k as f64;
         if k % 2 == 0 {
             if k > 2 {
-                pow = if k == 4 {
-                    tensor.square(&x2)
-                } else {
-                    tensor.product(&pow, &x2)
-                };
+                pow = if k == 4 { tensor.square(&x2) } else { tensor.product(&pow, &x2) };
             }
             for (e, v) in even.iter_mut().zip(&pow) {
                 *e += v / fact;
@@ -281,13 +273,7 @@ impl OlTable {
             b.push(crate::sh::dot(&g, &fh) / (nf * nf));
             norms.push(nf);
         }
-        Self {
-            n,
-            theta_stop,
-            norms,
-            a,
-            b,
-        }
+        Self { n, theta_stop, norms, a, b }
     }
 
     /// Largest tabulated ‖f̂‖.
@@ -298,25 +284,15 @@ impl OlTable {
     /// `(a, b)` at ‖f̂‖ by linear interpolation; clamped to the last entry beyond the table
     /// (OL is not accurate there: use HYB).
     pub fn lookup(&self, norm_fhat: f64) -> (f64, f64) {
-        let x = if norm_fhat.is_finite() {
-            norm_fhat.max(0.0)
-        } else {
-            self.norm_max()
-        };
+        let x = if norm_fhat.is_finite() { norm_fhat.max(0.0) } else { self.norm_max() };
         let k = self.norms.partition_point(|&v| v <= x);
         if k >= self.norms.len() {
-            return (
-                *self.a.last().unwrap_or(&1.0),
-                *self.b.last().unwrap_or(&1.0),
-            );
+            return (*self.a.last().unwrap_or(&1.0), *self.b.last().unwrap_or(&1.0));
         }
         let k0 = k.max(1) - 1;
         let k1 = k0 + 1;
         let w = (x - self.norms[k0]) / (self.norms[k1] - self.norms[k0]);
-        (
-            self.a[k0] + w * (self.a[k1] - self.a[k0]),
-            self.b[k0] + w * (self.b[k1] - self.b[k0]),
-        )
+        (self.a[k0] + w * (self.a[k1] - self.a[k0]), self.b[k0] + w * (self.b[k1] - self.b[k0]))
     }
 
     /// The table resampled at `count ≥ 2` points uniform in ‖f̂‖ over `[0, norm_max]`: the layout
@@ -325,17 +301,9 @@ impl OlTable {
     pub fn resampled(&self, count: usize) -> OlTable {
         let count = count.max(2);
         let nm = self.norm_max();
-        let norms: Vec<f64> = (0..count)
-            .map(|s| nm * s as f64 / (count - 1) as f64)
-            .collect();
+        let norms: Vec<f64> = (0..count).map(|s| nm * s as f64 / (count - 1) as f64).collect();
         let (a, b) = norms.iter().map(|&x| self.lookup(x)).unzip();
-        OlTable {
-            n: self.n,
-            theta_stop: self.theta_stop,
-            norms,
-            a,
-            b,
-        }
+        OlTable { n: self.n, theta_stop: self.theta_stop, norms, a, b }
     }
 }
 
@@ -414,11 +382,7 @@ impl ShExp {
         let tensor = ShTensor::new(n);
         let circles = CircleLogTable::new(&tensor);
         let ol = OlTable::new(&tensor);
-        Self {
-            tensor,
-            circles,
-            ol,
-        }
+        Self { tensor, circles, ol }
     }
 
     pub fn n(&self) -> usize {
@@ -457,12 +421,7 @@ impl ShExp {
 
 /// Relative L2 error `‖g − g_ref‖ / ‖g_ref‖` (0 when both vanish).
 pub fn relative_error(g: &[f64], g_ref: &[f64]) -> f64 {
-    let d: f64 = g
-        .iter()
-        .zip(g_ref)
-        .map(|(a, b)| (a - b) * (a - b))
-        .sum::<f64>()
-        .sqrt();
+    let d: f64 = g.iter().zip(g_ref).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
     let r = norm(g_ref);
     if r > 0.0 {
         d / r
@@ -498,8 +457,7 @@ pub fn exp_error_table(
 ) -> Vec<ExpErrorStats> {
     let mut rng = Pcg32::new(seed, 0x5e);
     // (bin, method) → (count, sum, max)
-    let mut acc: std::collections::BTreeMap<(usize, usize), (usize, f64, f64)> =
-        std::collections::BTreeMap::new();
+    let mut acc: std::collections::BTreeMap<(usize, usize), (usize, f64, f64)> = std::collections::BTreeMap::new();
     for _ in 0..scenes {
         let k = 1 + (rng.next_u32() as usize) % max_blockers.max(1);
         let f = ctx.random_blocker_log(&mut rng, k);
@@ -539,10 +497,7 @@ pub fn exp_error_markdown(rows: &[ExpErrorStats], methods: &[ExpMethod]) -> Stri
     }
     s += "\n";
     for chunk in rows.chunks(methods.len()) {
-        s += &format!(
-            "| {:.0}–{:.0} | {} |",
-            chunk[0].norm_lo, chunk[0].norm_hi, chunk[0].count
-        );
+        s += &format!("| {:.0}–{:.0} | {} |", chunk[0].norm_lo, chunk[0].norm_hi, chunk[0].count);
         for r in chunk {
             s += &format!(" {:.1e} / {:.1e} |", r.mean_rel, r.max_rel);
         }
@@ -570,10 +525,7 @@ pub fn glsl_order4_tables(ctx: &ShExp) -> String {
             s += "\n   ";
         }
         let packed = e.i as u32 | (e.j as u32) << 8 | (e.k as u32) << 16;
-        s += &format!(
-            " {packed}u{}",
-            if q + 1 < t.entries.len() { "," } else { "" }
-        );
+        s += &format!(" {packed}u{}", if q + 1 < t.entries.len() { "," } else { "" });
     }
     s += ");\n";
     s += &format!("const float SH4_GAMMA_V[{}] = float[](", t.entries.len());
@@ -581,11 +533,7 @@ pub fn glsl_order4_tables(ctx: &ShExp) -> String {
         if q % 6 == 0 {
             s += "\n   ";
         }
-        s += &format!(
-            " {}{}",
-            f32s(e.v),
-            if q + 1 < t.entries.len() { "," } else { "" }
-        );
+        s += &format!(" {}{}", f32s(e.v), if q + 1 < t.entries.len() { "," } else { "" });
     }
     s += ");\n";
     let ol = ctx.ol.resampled(GLSL_OL_SAMPLES);
@@ -611,10 +559,7 @@ mod tests {
     use crate::sh::{project_function, reconstruct, zh_rotate};
 
     fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
+        a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
     }
 
     #[test]
@@ -679,12 +624,7 @@ mod tests {
         let ex = exp_exact(&t, &f);
         let want = project_function(3, |d| reconstruct(n, &f, d).exp(), 24, 8);
         for i in 0..9 {
-            assert!(
-                (ex[i] - want[i]).abs() < 5e-6,
-                "i={i}: {} vs {}",
-                ex[i],
-                want[i]
-            );
+            assert!((ex[i] - want[i]).abs() < 5e-6, "i={i}: {} vs {}", ex[i], want[i]);
         }
     }
 
@@ -719,23 +659,12 @@ mod tests {
             let g = exp_ol(&ctx.ol, &f);
             // The fitted residual ĝ − (a 1 + b f̂) is what remains (the linear model's floor):
             // measured 3.2e-2 at θ = 0.8, n = 4; bound 5e-2.
-            assert!(
-                relative_error(&g, &ex) < 5e-2,
-                "θ={theta}: {}",
-                relative_error(&g, &ex)
-            );
+            assert!(relative_error(&g, &ex) < 5e-2, "θ={theta}: {}", relative_error(&g, &ex));
         }
         // Very small ‖f̂‖: all methods agree to second order.
-        let f: Vec<f64> = (0..16)
-            .map(|i| if i == 0 { -0.1 } else { 1e-4 * i as f64 })
-            .collect();
+        let f: Vec<f64> = (0..16).map(|i| if i == 0 { -0.1 } else { 1e-4 * i as f64 }).collect();
         let ex = exp_exact(&ctx.tensor, &f);
-        for m in [
-            ExpMethod::Ps(4),
-            ExpMethod::PsStar(2),
-            ExpMethod::Ol,
-            ExpMethod::Hyb(1.0),
-        ] {
+        for m in [ExpMethod::Ps(4), ExpMethod::PsStar(2), ExpMethod::Ol, ExpMethod::Hyb(1.0)] {
             // Errors O(‖f̂‖²) ≈ 1e-6 relative.
             assert!(relative_error(&ctx.exp(&f, m), &ex) < 1e-5, "{m:?}");
         }
@@ -772,49 +701,28 @@ mod tests {
         assert!(nf > 20.0, "‖f̂‖ = {nf}");
         let ex = exp_exact(&ctx.tensor, &f);
         assert!(ex.iter().all(|v| v.is_finite()));
-        for m in [
-            ExpMethod::Ps(10),
-            ExpMethod::PsStar(2),
-            ExpMethod::PsStar(6),
-            ExpMethod::Ol,
-            ExpMethod::Hyb(1.0),
-        ] {
+        for m in [ExpMethod::Ps(10), ExpMethod::PsStar(2), ExpMethod::PsStar(6), ExpMethod::Ol, ExpMethod::Hyb(1.0)] {
             let g = ctx.exp(&f, m);
-            assert!(
-                g.iter().all(|v| v.is_finite()),
-                "{m:?} not finite at ‖f̂‖={nf}"
-            );
+            assert!(g.iter().all(|v| v.is_finite()), "{m:?} not finite at ‖f̂‖={nf}");
         }
         // Scaled methods remain usable relative to the DC of the unblocked part: the visibility
         // averaged over the sphere (g_0/√(4π)) is within 0.05 of the exact one. Measured ≤ 0.02.
         let avg = |g: &[f64]| g[0] / SQRT_4PI;
         for m in [ExpMethod::PsStar(6), ExpMethod::Hyb(1.0)] {
             let g = ctx.exp(&f, m);
-            assert!(
-                (avg(&g) - avg(&ex)).abs() < 0.05,
-                "{m:?}: {} vs {}",
-                avg(&g),
-                avg(&ex)
-            );
+            assert!((avg(&g) - avg(&ex)).abs() < 0.05, "{m:?}: {} vs {}", avg(&g), avg(&ex));
         }
         // PS-p (no scaling) diverges at large norm: its error is huge (DESIGN §3: ‖f̂‖ ≳ 3).
         assert!(relative_error(&exp_ps(&ctx.tensor, &f, 10), &ex) > 10.0);
         // Tiny blockers: θ = 1e-4 gives f ≈ 0 and every method returns ≈ 1.
         let f = ctx.circles.log_visibility(1e-4, [0.0, 1.0, 0.0]);
-        for m in [
-            ExpMethod::Exact,
-            ExpMethod::PsStar(2),
-            ExpMethod::Ol,
-            ExpMethod::Hyb(1.0),
-        ] {
+        for m in [ExpMethod::Exact, ExpMethod::PsStar(2), ExpMethod::Ol, ExpMethod::Hyb(1.0)] {
             let g = ctx.exp(&f, m);
             assert!(relative_error(&g, &one(4)) < 1e-6, "{m:?}");
         }
         // Receiver inside a blocker: half-space log, θ beyond π/2 clamped to it by the table;
         // the exact exp gives about half visibility on average (measured 0.5 ± 0.05).
-        let f = ctx
-            .circles
-            .sphere_log_visibility([0.0; 3], [0.0, 0.0, 0.5], 1.0);
+        let f = ctx.circles.sphere_log_visibility([0.0; 3], [0.0, 0.0, 0.5], 1.0);
         let g = exp_exact(&ctx.tensor, &f);
         assert!((avg(&g) - 0.5).abs() < 0.1, "inside: {}", avg(&g));
         for m in [ExpMethod::PsStar(2), ExpMethod::Hyb(1.0), ExpMethod::Ol] {
@@ -833,9 +741,7 @@ mod tests {
         let methods = [ExpMethod::PsStar(2), ExpMethod::Ol];
         let rows = exp_error_table(&ctx, &methods, 30, 8, 2.0, 5);
         assert!(!rows.is_empty() && rows.len().is_multiple_of(2));
-        assert!(rows
-            .iter()
-            .all(|r| r.count > 0 && r.mean_rel <= r.max_rel && r.mean_rel.is_finite()));
+        assert!(rows.iter().all(|r| r.count > 0 && r.mean_rel <= r.max_rel && r.mean_rel.is_finite()));
         let md = exp_error_markdown(&rows, &methods);
         assert!(md.contains("PS*-2") && md.lines().count() == 2 + rows.len() / 2);
     }
@@ -843,10 +749,7 @@ mod tests {
     #[test]
     fn glsl_tables_match_generated() {
         let ctx = ShExp::new(4);
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shaders-glsl/common/shexp.glsl"
-        );
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders-glsl/common/shexp.glsl");
         let text = std::fs::read_to_string(path).expect("shaders-glsl/common/shexp.glsl");
         assert!(
             text.contains(&glsl_order4_tables(&ctx)),
@@ -872,11 +775,7 @@ mod tests {
     fn report() {
         for n in [4, 6] {
             let ctx = ShExp::new(n);
-            println!(
-                "n={n}: OL table θ_stop={:.3}, ‖f̂‖max={:.3}",
-                ctx.ol.theta_stop,
-                ctx.ol.norm_max()
-            );
+            println!("n={n}: OL table θ_stop={:.3}, ‖f̂‖max={:.3}", ctx.ol.theta_stop, ctx.ol.norm_max());
             let methods = [
                 ExpMethod::Ps(4),
                 ExpMethod::Ps(10),
@@ -898,8 +797,7 @@ mod tests {
             let iters = 200_000;
             let t0 = std::time::Instant::now();
             for _ in 0..iters {
-                ctx.tensor
-                    .product_into(std::hint::black_box(&a), &b, &mut out);
+                ctx.tensor.product_into(std::hint::black_box(&a), &b, &mut out);
                 std::hint::black_box(&out);
             }
             let tp = t0.elapsed().as_secs_f64() / iters as f64;
@@ -911,22 +809,13 @@ mod tests {
             let ts = t0.elapsed().as_secs_f64() / iters as f64;
             let f = ctx.random_blocker_log(&mut rng, 10);
             let mut times = Vec::new();
-            for m in [
-                ExpMethod::Exact,
-                ExpMethod::PsStar(2),
-                ExpMethod::Ol,
-                ExpMethod::Hyb(1.0),
-            ] {
+            for m in [ExpMethod::Exact, ExpMethod::PsStar(2), ExpMethod::Ol, ExpMethod::Hyb(1.0)] {
                 let it = if m == ExpMethod::Exact { 200 } else { 20_000 };
                 let t0 = std::time::Instant::now();
                 for _ in 0..it {
                     std::hint::black_box(ctx.exp(std::hint::black_box(&f), m));
                 }
-                times.push(format!(
-                    "{} {:.2} µs",
-                    m.label(),
-                    t0.elapsed().as_secs_f64() / it as f64 * 1e6
-                ));
+                times.push(format!("{} {:.2} µs", m.label(), t0.elapsed().as_secs_f64() / it as f64 * 1e6));
             }
             println!(
                 "n={n}: {} stored entries, product {:.1} ns, square {:.1} ns; exp: {}",
