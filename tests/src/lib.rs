@@ -1,1 +1,54 @@
-//! Integration tests live in tests/tests/.
+//! Shared helpers of the integration tests in tests/tests/.
+
+use engine::gpu::Gpu;
+use engine::renderer::{RenderSettings, Renderer};
+use engine::scene::Scene;
+
+/// A GPU with the validation layer required (any validation error fails `shutdown`).
+pub fn gpu() -> Gpu {
+    engine::gpu::testing::test_gpu().expect("a Vulkan device with the validation layer (run `cargo xtask test`)")
+}
+
+/// Render `scene` once and return (linear RGBA32F, tone-mapped RGBA8).
+pub fn render(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, Vec<u8>) {
+    let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
+    r.render(gpu).expect("frame");
+    let hdr = r.read_radiance(gpu).expect("readback");
+    let ldr = r.read_ldr(gpu).expect("readback");
+    r.destroy(gpu);
+    (hdr, ldr)
+}
+
+/// Relative RMSE over pixels where `mask` holds: sqrt(Σ|a−b|²) / sqrt(Σ|b|²) on RGB.
+pub fn relative_rmse(a: &[f32], b: &[f32], mask: impl Fn(usize) -> bool) -> f64 {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for i in 0..a.len() / 4 {
+        if !mask(i) {
+            continue;
+        }
+        for c in 0..3 {
+            let (x, y) = (a[4 * i + c] as f64, b[4 * i + c] as f64);
+            num += (x - y) * (x - y);
+            den += y * y;
+        }
+    }
+    (num / den.max(f64::MIN_POSITIVE)).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::relative_rmse;
+
+    // The metric itself, on pairs with known answers.
+    #[test]
+    fn relative_rmse_known_answers() {
+        let b = vec![1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 1.0];
+        assert_eq!(relative_rmse(&b, &b, |_| true), 0.0);
+        let a: Vec<f32> = b.iter().map(|x| x * 1.1).collect();
+        assert!((relative_rmse(&a, &b, |_| true) - 0.1).abs() < 1e-6);
+        // Masked-out pixels do not count.
+        let mut c = b.clone();
+        c[4] = 100.0;
+        assert_eq!(relative_rmse(&c, &b, |i| i == 0), 0.0);
+    }
+}

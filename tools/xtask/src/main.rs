@@ -1,1 +1,154 @@
-fn main() {}
+//! `cargo xtask`: set-up, demo, test, bless, spheres.
+//!
+//! Set-up installs what a fresh Debian/Ubuntu machine lacks (Vulkan loader, lavapipe, shaderc,
+//! validation layers, Xvfb) with apt when root; otherwise it prints the command and fails.
+//! This crate depends on nothing native, so it builds before those packages exist.
+
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const APT_PACKAGES: &[&str] =
+    &["mesa-vulkan-drivers", "libvulkan1", "libvulkan-dev", "libshaderc-dev", "glslc", "vulkan-validationlayers", "xvfb"];
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn usage() -> ! {
+    eprintln!(
+        "usage: cargo xtask <command> [args]\n\
+         commands:\n  \
+         demo [demo args]   set up, build (release) and render the default scene to out/ (see --help)\n  \
+         test               set up, then run every test (validation layers on)\n  \
+         bless              re-render the reference images of the image tests\n  \
+         setup              only install what is missing\n  \
+         spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)"
+    );
+    std::process::exit(2)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(cmd) = args.first() else { usage() };
+    let rest = &args[1..];
+    let result = match cmd.as_str() {
+        "setup" => setup(),
+        "demo" => setup().and_then(|_| demo(rest)),
+        "test" => setup().and_then(|_| test(rest)),
+        "bless" => setup().and_then(|_| bless()),
+        "spheres" => spheres(rest),
+        "-h" | "--help" | "help" => usage(),
+        other => {
+            eprintln!("unknown command '{other}'");
+            usage()
+        }
+    };
+    if let Err(e) = result {
+        eprintln!("xtask: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn is_installed(pkg: &str) -> bool {
+    Command::new("dpkg-query")
+        .args(["-W", "-f=${Status}", pkg])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).contains("install ok installed"))
+        .unwrap_or(false)
+}
+
+fn is_root() -> bool {
+    Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false)
+}
+
+/// Install missing apt packages (when root), and point shaderc-sys at the static library.
+fn setup() -> Result<()> {
+    let has_apt = Path::new("/usr/bin/apt-get").exists() && Path::new("/usr/bin/dpkg-query").exists();
+    if !has_apt {
+        bail!(
+            "this is not a Debian/Ubuntu machine with apt. Install by hand: the Vulkan loader, a Vulkan driver \
+             (Mesa lavapipe works without a GPU), shaderc with libshaderc_combined.a, the Khronos validation layer \
+             and Xvfb; then set SHADERC_LIB_DIR to the folder of libshaderc_combined.a"
+        );
+    }
+    let missing: Vec<&str> = APT_PACKAGES.iter().copied().filter(|p| !is_installed(p)).collect();
+    if !missing.is_empty() {
+        let cmd = format!("apt-get update && apt-get install -y --no-install-recommends {}", missing.join(" "));
+        if !is_root() {
+            bail!("missing packages: {}. Run as root:\n  sudo sh -c '{cmd}'", missing.join(", "));
+        }
+        eprintln!("xtask: installing {}", missing.join(" "));
+        let ok = Command::new("sh")
+            .arg("-c")
+            .arg(&cmd)
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .status()
+            .context("running apt-get")?
+            .success();
+        if !ok {
+            bail!("apt-get failed; run by hand: {cmd}");
+        }
+    }
+    if std::env::var_os("SHADERC_LIB_DIR").is_none() {
+        let multiarch = Command::new("gcc")
+            .arg("-print-multiarch")
+            .output()
+            .ok()
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+            .filter(|s| !s.is_empty())
+            .unwrap_or_else(|| "x86_64-linux-gnu".into());
+        let dir = format!("/usr/lib/{multiarch}");
+        if !Path::new(&dir).join("libshaderc_combined.a").exists() {
+            bail!("{dir}/libshaderc_combined.a not found even though libshaderc-dev is installed; set SHADERC_LIB_DIR");
+        }
+        // SAFETY: single-threaded here; children inherit it.
+        unsafe { std::env::set_var("SHADERC_LIB_DIR", dir) };
+    }
+    Ok(())
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    c.current_dir(root());
+    c
+}
+
+fn run(mut c: Command) -> Result<()> {
+    let desc = format!("{c:?}");
+    let status = c.status().with_context(|| format!("running {desc}"))?;
+    if !status.success() {
+        bail!("{desc} failed ({status})");
+    }
+    Ok(())
+}
+
+fn demo(rest: &[String]) -> Result<()> {
+    let mut c = cargo();
+    c.args(["run", "--release", "--quiet", "-p", "demos", "--bin", "demo", "--"]).args(rest);
+    run(c)
+}
+
+fn test(rest: &[String]) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    // Validation layers required in every GPU test; any validation error fails teardown.
+    let mut c = cargo();
+    c.env("ENGINE_VALIDATION", "1");
+    c.args(["test", "--workspace", "--exclude", "xtask"]).args(rest);
+    run(c)?;
+    eprintln!("xtask: all tests passed in {:.0} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn bless() -> Result<()> {
+    let mut c = cargo();
+    c.env("ENGINE_BLESS", "1").env("ENGINE_VALIDATION", "1");
+    c.args(["test", "-p", "engine-tests", "--test", "image"]);
+    run(c)
+}
+
+fn spheres(rest: &[String]) -> Result<()> {
+    let mut c = cargo();
+    c.args(["run", "--release", "--quiet", "-p", "engine-blockers", "--bin", "spheres", "--"]).args(rest);
+    run(c)
+}
