@@ -342,19 +342,9 @@ impl SphereBvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::random_spheres;
     use engine_math::rng::Pcg32;
     use std::f64::consts::PI;
-
-    fn random_spheres(rng: &mut Pcg32, n: usize) -> Vec<Sphere> {
-        (0..n)
-            .map(|_| {
-                Sphere::new(
-                    DVec3::new(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0)),
-                    rng.uniform(0.05, 0.8),
-                )
-            })
-            .collect()
-    }
 
     /// Structural invariants: children inside parents, parent links, every leaf reachable once.
     fn check_structure(bvh: &SphereBvh, spheres: &[Sphere]) {

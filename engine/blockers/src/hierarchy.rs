@@ -288,18 +288,8 @@ impl SphereHierarchy {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::random_spheres;
     use engine_math::rng::Pcg32;
-
-    fn random_spheres(rng: &mut Pcg32, n: usize) -> Vec<Sphere> {
-        (0..n)
-            .map(|_| {
-                Sphere::new(
-                    DVec3::new(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0)),
-                    rng.uniform(0.05, 0.8),
-                )
-            })
-            .collect()
-    }
 
     fn check(h: &SphereHierarchy, spheres: &[Sphere]) {
         let mut seen = vec![0u32; h.nodes().len()];

@@ -50,3 +50,23 @@ pub enum BlockerError {
     #[error("sphere file {path} has format version {found}, this build reads version {expected}")]
     Version { path: String, found: u32, expected: u32 },
 }
+
+/// Shared fixtures of the unit tests.
+#[cfg(test)]
+pub(crate) mod test_util {
+    use crate::geom::Sphere;
+    use engine_math::rng::Pcg32;
+    use glam::DVec3;
+
+    /// `n` seeded random spheres in [−5, 5]³ with radii in [0.05, 0.8].
+    pub fn random_spheres(rng: &mut Pcg32, n: usize) -> Vec<Sphere> {
+        (0..n)
+            .map(|_| {
+                Sphere::new(
+                    DVec3::new(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0)),
+                    rng.uniform(0.05, 0.8),
+                )
+            })
+            .collect()
+    }
+}
