@@ -8,10 +8,13 @@ use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod report;
+mod tables;
+
 const APT_PACKAGES: &[&str] =
     &["mesa-vulkan-drivers", "libvulkan1", "libvulkan-dev", "libshaderc-dev", "glslc", "vulkan-validationlayers", "xvfb"];
 
-fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
@@ -23,7 +26,9 @@ fn usage() -> ! {
          test               set up, then run every test (validation layers on)\n  \
          bless              re-render the reference images of the image tests\n  \
          setup              only install what is missing\n  \
-         spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)"
+         spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)\n  \
+         tables [--check]   regenerate the binary math tables in assets/tables (or check them)\n  \
+         report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)"
     );
     std::process::exit(2)
 }
@@ -38,6 +43,8 @@ fn main() {
         "test" => setup().and_then(|_| test(rest)),
         "bless" => setup().and_then(|_| bless()),
         "spheres" => spheres(rest),
+        "tables" => tables::run(rest),
+        "report" => setup().and_then(|_| report::run(rest)),
         "-h" | "--help" | "help" => usage(),
         other => {
             eprintln!("unknown command '{other}'");
@@ -108,13 +115,13 @@ fn setup() -> Result<()> {
     Ok(())
 }
 
-fn cargo() -> Command {
+pub(crate) fn cargo() -> Command {
     let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     c.current_dir(root());
     c
 }
 
-fn run(mut c: Command) -> Result<()> {
+pub(crate) fn run(mut c: Command) -> Result<()> {
     let desc = format!("{c:?}");
     let status = c.status().with_context(|| format!("running {desc}"))?;
     if !status.success() {
