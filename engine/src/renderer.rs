@@ -2,7 +2,9 @@
 //! GPU times. Everything is allocated in [`Renderer::new`]; a steady frame allocates no device
 //! memory (checked by a test through the allocator's counters).
 
-use crate::gpu::{Buffer, BufferDesc, Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Result};
+use crate::gpu::{
+    Buffer, BufferDesc, Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result, SwapchainImage,
+};
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 use crate::passes::shade::{create_technique, ComposePass, ShadeInputs, ShadeTarget, Technique};
@@ -308,11 +310,21 @@ impl Renderer {
 
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
+        self.render_to(gpu, None)
+    }
+
+    /// Render one frame into an acquired swapchain image (blitting the tone-mapped image, scaled
+    /// if the sizes differ) and wait for it; present it with [`crate::gpu::Swapchain::present`].
+    pub fn render_presenting(&mut self, gpu: &Gpu, target: &SwapchainImage) -> Result<Vec<PassTiming>> {
+        self.render_to(gpu, Some(target))
+    }
+
+    fn render_to(&mut self, gpu: &Gpu, present: Option<&SwapchainImage>) -> Result<Vec<PassTiming>> {
         let data = self.frame_data();
         self.scene.frame.write(std::slice::from_ref(&data))?;
         let Self { scene, gbuffer, radiance, ldr, skin, gbuffer_pass, compose, tonemap, technique, frame, settings, .. } = self;
         let per_vertex = settings.per_vertex;
-        gpu.run_frame(frame, None, None, |rec| {
+        let record = |rec: &mut Recorder| {
             skin.record(rec, scene)?;
             let inputs = ShadeInputs { scene };
             if per_vertex {
@@ -327,7 +339,11 @@ impl Renderer {
             tonemap.record(rec, scene, radiance, ldr)?;
             rec.end_pass();
             Ok(())
-        })
+        };
+        match present {
+            None => gpu.run_frame(frame, None, None, record),
+            Some(target) => gpu.run_frame_presenting(frame, target, ldr, record),
+        }
     }
 
     /// Linear radiance, RGBA32F, row-major from the top-left.

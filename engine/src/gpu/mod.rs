@@ -11,6 +11,7 @@ mod recorder;
 mod resources;
 mod shader;
 mod spirv;
+mod swapchain;
 pub mod testing;
 
 pub use context::{default_shader_root, AdapterInfo, Gpu, GpuDesc, MemoryStats, ValidationMode};
@@ -18,6 +19,7 @@ pub use pipeline::{Binding, ComputePipeline, GraphicsPipeline, GraphicsPipelineD
 pub use recorder::{Frame, PassTiming, Recorder};
 pub use resources::{Buffer, BufferDesc, Image, ImageDesc, ImageFormat, Memory};
 pub use shader::{ShaderCompiler, ShaderModuleInfo, ShaderStage};
+pub use swapchain::{surface_extensions, Swapchain, SwapchainImage};
 pub use spirv::{DescriptorKind, ReflectedBinding, Reflection};
 
 /// Errors of the GPU layer.

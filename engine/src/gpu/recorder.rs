@@ -327,6 +327,18 @@ impl Recorder<'_> {
 
     /// Copy a whole image into another of the same size (blit with format conversion).
     pub fn blit(&mut self, src: &Image, dst_raw: vk::Image, dst_layout: vk::ImageLayout, dst_extent: [u32; 2]) {
+        self.blit_filtered(src, dst_raw, dst_layout, dst_extent, vk::Filter::NEAREST)
+    }
+
+    /// [`Recorder::blit`] with a chosen filter (linear when scaling).
+    pub(crate) fn blit_filtered(
+        &mut self,
+        src: &Image,
+        dst_raw: vk::Image,
+        dst_layout: vk::ImageLayout,
+        dst_extent: [u32; 2],
+        filter: vk::Filter,
+    ) {
         let sub = vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1);
         let region = vk::ImageBlit::default()
             .src_subresource(sub)
@@ -348,7 +360,7 @@ impl Recorder<'_> {
                 dst_raw,
                 dst_layout,
                 &[region],
-                vk::Filter::NEAREST,
+                filter,
             )
         };
     }
