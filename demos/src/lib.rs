@@ -6,6 +6,8 @@ use engine::scene::{load_environment, load_obj, Camera, Instance, Material, Mesh
 use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
 
+pub mod viewer;
+
 /// The project's `assets/` folder (`ENGINE_ASSETS` overrides).
 pub fn assets_dir() -> PathBuf {
     std::env::var_os("ENGINE_ASSETS")
@@ -90,6 +92,7 @@ pub fn bunny_scene(env: Option<&Path>) -> anyhow::Result<Scene> {
         ],
         environment,
         environment_intensity: 1.0,
+        lights: Vec::new(),
         camera: Camera { eye: Vec3::new(0.0, 0.9, 2.4), target: Vec3::new(0.0, 0.4, 0.0), fov_y_degrees: 40.0 },
     })
 }
@@ -103,6 +106,7 @@ pub fn furnace_scene(albedo: f32, radiance: f32) -> Scene {
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: LatLongMap::constant(64, 32, [radiance; 3]),
         environment_intensity: 1.0,
+        lights: Vec::new(),
         camera: Camera { eye: Vec3::new(0.0, 1.5, 0.01), target: Vec3::ZERO, fov_y_degrees: 40.0 },
     }
 }
@@ -124,6 +128,7 @@ pub fn sphere_scene(stacks: u32) -> Scene {
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: LatLongMap { width: w, height: h, texels },
         environment_intensity: 1.0,
+        lights: Vec::new(),
         camera: Camera { eye: Vec3::new(0.0, 0.8, 3.0), target: Vec3::ZERO, fov_y_degrees: 45.0 },
     }
 }

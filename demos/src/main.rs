@@ -43,6 +43,14 @@ struct Args {
     /// Report device memory before and after the frames (and allocations made by steady frames).
     #[arg(long)]
     memory: bool,
+    /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
+    /// T: technique, V: per-vertex/per-pixel, +/-: exposure, R: reset, Esc: quit).
+    #[arg(long)]
+    window: bool,
+    /// With --window: quit after this many presented frames (0: when the window closes), printing
+    /// `presented frame N` for each.
+    #[arg(long, default_value_t = 0)]
+    exit_after: u64,
 }
 
 fn main() {
@@ -55,7 +63,15 @@ fn main() {
 fn run() -> anyhow::Result<()> {
     let args = Args::parse();
     let scene = demos::build_scene(&args.scene, args.env.as_deref())?;
-    let gpu = Gpu::new(&GpuDesc { device_name: args.device.clone(), ..GpuDesc::default() })?;
+    // A window needs its display's surface extensions on the instance: open the display first.
+    let (event_loop, surface_extensions) = match args.window {
+        true => {
+            let (el, ext) = demos::viewer::event_loop()?;
+            (Some(el), ext)
+        }
+        false => (None, Vec::new()),
+    };
+    let gpu = Gpu::new(&GpuDesc { device_name: args.device.clone(), surface_extensions, ..GpuDesc::default() })?;
     let settings = RenderSettings {
         width: args.width,
         height: args.height,
@@ -63,11 +79,19 @@ fn run() -> anyhow::Result<()> {
         per_vertex: args.per_vertex,
         exposure: args.exposure,
     };
-    eprintln!("preparing scene '{}' with technique '{}' at {}x{}...", args.scene, args.technique, args.width, args.height);
+    eprintln!(
+        "preparing scene '{}' with technique '{}' at {}x{}...",
+        args.scene, args.technique, args.width, args.height
+    );
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
-    let result = render_frames(&gpu, &mut renderer, &args);
+    let result = match event_loop {
+        Some(el) => {
+            demos::viewer::run(el, &gpu, &mut renderer, demos::viewer::ViewerOptions { exit_after: args.exit_after })
+        }
+        None => render_frames(&gpu, &mut renderer, &args),
+    };
     renderer.destroy(&gpu);
     gpu.shutdown()?;
     result

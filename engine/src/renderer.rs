@@ -3,14 +3,15 @@
 //! memory (checked by a test through the allocator's counters).
 
 use crate::gpu::{
-    Buffer, BufferDesc, Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result, SwapchainImage,
+    Buffer, BufferDesc, Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result,
+    SwapchainImage,
 };
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 use crate::passes::shade::{create_technique, ComposePass, ShadeInputs, ShadeTarget, Technique};
 use crate::passes::skin::SkinPass;
 use crate::passes::tonemap::TonemapPass;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Scene, SphereLight};
 use engine_math::envmap::LatLongMap;
 use engine_math::prefilter::PREFILTER_LEVELS;
 
@@ -28,6 +29,8 @@ pub struct GpuScene {
     /// The environment on the CPU (already scaled by the scene's intensity), for techniques'
     /// `prepare` (prefiltering, SG/SH fits).
     pub environment_cpu: LatLongMap,
+    /// The scene's spherical lights (world space), for techniques' `prepare`.
+    pub lights: Vec<SphereLight>,
     pub vertex_count: u32,
     pub index_count: u32,
 }
@@ -38,7 +41,10 @@ impl GpuScene {
         let mut indices = Vec::new();
         let mut objects = Vec::new();
         for (i, inst) in scene.instances.iter().enumerate() {
-            let mesh = scene.meshes.get(inst.mesh).ok_or_else(|| GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)))?;
+            let mesh = scene
+                .meshes
+                .get(inst.mesh)
+                .ok_or_else(|| GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)))?;
             if inst.material >= scene.materials.len() {
                 return Err(GpuError::Other(format!("instance {i}: no material {}", inst.material)));
             }
@@ -117,13 +123,22 @@ impl GpuScene {
             frame: next()?,
             environment,
             environment_cpu: env,
+            lights: scene.lights.clone(),
             vertex_count: n as u32,
             index_count: indices.len() as u32,
         })
     }
 
     pub fn destroy(self, gpu: &Gpu) {
-        for b in [self.vertices, self.indices, self.objects, self.materials, self.world_vertices, self.vertex_radiance, self.frame] {
+        for b in [
+            self.vertices,
+            self.indices,
+            self.objects,
+            self.materials,
+            self.world_vertices,
+            self.vertex_radiance,
+            self.frame,
+        ] {
             gpu.destroy_buffer(b);
         }
         gpu.destroy_image(self.environment);
@@ -322,7 +337,20 @@ impl Renderer {
     fn render_to(&mut self, gpu: &Gpu, present: Option<&SwapchainImage>) -> Result<Vec<PassTiming>> {
         let data = self.frame_data();
         self.scene.frame.write(std::slice::from_ref(&data))?;
-        let Self { scene, gbuffer, radiance, ldr, skin, gbuffer_pass, compose, tonemap, technique, frame, settings, .. } = self;
+        let Self {
+            scene,
+            gbuffer,
+            radiance,
+            ldr,
+            skin,
+            gbuffer_pass,
+            compose,
+            tonemap,
+            technique,
+            frame,
+            settings,
+            ..
+        } = self;
         let per_vertex = settings.per_vertex;
         let record = |rec: &mut Recorder| {
             skin.record(rec, scene)?;

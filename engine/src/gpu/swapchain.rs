@@ -57,8 +57,8 @@ impl Swapchain {
         let surface = unsafe { ash_window::create_surface(gpu.entry(), &gpu.instance, display, window, None) }
             .vk("vkCreateSurfaceKHR")?;
         // SAFETY: surface and physical device belong to this instance.
-        let supported =
-            unsafe { loader.get_physical_device_surface_support(gpu.physical, gpu.queue_family, surface) }.unwrap_or(false);
+        let supported = unsafe { loader.get_physical_device_surface_support(gpu.physical, gpu.queue_family, surface) }
+            .unwrap_or(false);
         if !supported {
             // SAFETY: the surface was created above and is unused.
             unsafe { loader.destroy_surface(surface, None) };
@@ -94,15 +94,15 @@ impl Swapchain {
     /// Build (or rebuild, after a resize) the swapchain; waits for the device to be idle.
     pub fn recreate(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<()> {
         let loader = gpu.surface_instance.as_ref().expect("checked in new");
-        let device_loader = gpu
-            .swapchain_device
-            .as_ref()
-            .ok_or_else(|| GpuError::Other("this Gpu has no VK_KHR_swapchain".into()))?;
+        let device_loader =
+            gpu.swapchain_device.as_ref().ok_or_else(|| GpuError::Other("this Gpu has no VK_KHR_swapchain".into()))?;
         gpu.wait_idle()?;
         // SAFETY: surface queries on a valid surface and physical device.
         let (caps, formats, modes) = unsafe {
             (
-                loader.get_physical_device_surface_capabilities(gpu.physical, self.surface).vk("surface capabilities")?,
+                loader
+                    .get_physical_device_surface_capabilities(gpu.physical, self.surface)
+                    .vk("surface capabilities")?,
                 loader.get_physical_device_surface_formats(gpu.physical, self.surface).vk("surface formats")?,
                 loader.get_physical_device_surface_present_modes(gpu.physical, self.surface).vk("present modes")?,
             )
@@ -160,8 +160,9 @@ impl Swapchain {
                 gpu.device.destroy_semaphore(s, None);
             }
             for _ in 0..self.images.len() {
-                self.rendered
-                    .push(gpu.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None).vk("vkCreateSemaphore")?);
+                self.rendered.push(
+                    gpu.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None).vk("vkCreateSemaphore")?,
+                );
             }
         }
         for (i, &img) in self.images.iter().enumerate() {
@@ -267,10 +268,8 @@ impl Gpu {
 impl super::Recorder<'_> {
     /// Transition the swapchain image, blit `src` into it, and transition it for presentation.
     pub(crate) fn present_blit(&mut self, src: &Image, target: &SwapchainImage) {
-        let range = vk::ImageSubresourceRange::default()
-            .aspect_mask(vk::ImageAspectFlags::COLOR)
-            .level_count(1)
-            .layer_count(1);
+        let range =
+            vk::ImageSubresourceRange::default().aspect_mask(vk::ImageAspectFlags::COLOR).level_count(1).layer_count(1);
         let to_dst = vk::ImageMemoryBarrier2::default()
             .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
             .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)

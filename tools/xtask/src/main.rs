@@ -1,7 +1,7 @@
 //! `cargo xtask`: set-up, demo, test, bless, spheres.
 //!
 //! Set-up installs what a fresh Debian/Ubuntu machine lacks (Vulkan loader, lavapipe, shaderc,
-//! validation layers, Xvfb) with apt when root; otherwise it prints the command and fails.
+//! validation layers, Xvfb and xwd for the window test) with apt when root; otherwise it prints the command and fails.
 //! This crate depends on nothing native, so it builds before those packages exist.
 
 use anyhow::{bail, Context, Result};
@@ -12,7 +12,7 @@ mod report;
 mod tables;
 
 const APT_PACKAGES: &[&str] =
-    &["mesa-vulkan-drivers", "libvulkan1", "libvulkan-dev", "libshaderc-dev", "glslc", "vulkan-validationlayers", "xvfb"];
+    &["mesa-vulkan-drivers", "libvulkan1", "libvulkan-dev", "libshaderc-dev", "glslc", "vulkan-validationlayers", "xvfb", "x11-apps"];
 
 pub(crate) fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
