@@ -86,6 +86,17 @@ impl Camera {
     }
 }
 
+/// A spherical area light of uniform radiance (world space). Techniques and the reference treat
+/// its radiance as added to the environment's along the directions it subtends (it does not hide
+/// the environment behind it); it casts no shadow itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereLight {
+    pub center: Vec3,
+    pub radius: f32,
+    /// Emitted radiance, linear RGB.
+    pub radiance: Vec3,
+}
+
 /// Everything a frame renders.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -95,6 +106,8 @@ pub struct Scene {
     pub environment: engine_math::envmap::LatLongMap,
     /// Radiance scale applied to the environment.
     pub environment_intensity: f32,
+    /// Spherical lights (may be empty).
+    pub lights: Vec<SphereLight>,
     pub camera: Camera,
 }
 
