@@ -2,6 +2,7 @@
 
 mod env;
 mod mesh;
+pub mod triangle_bvh;
 
 pub use env::load_environment;
 pub use mesh::{compute_normals, load_gltf, load_obj, GltfScene, Mesh};
