@@ -156,6 +156,7 @@ fn viewer_presents_the_headless_image() {
             differing += (d > 0) as usize;
         }
     }
+    eprintln!("presented vs headless: max difference {worst}/255, {differing} of {} pixels differ", W * H);
     // Same renderer, same size, a NEAREST blit from RGBA8 into an 8-bit UNORM swapchain image and a
     // depth-24 X screen: the presented pixels must be the headless ones exactly (1 level of slack for
     // a driver that converts through float).
