@@ -12,3 +12,5 @@ pub mod rng;
 pub mod sg;
 pub mod sh;
 pub mod shexp;
+pub mod table_gen;
+pub mod tables;
