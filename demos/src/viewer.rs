@@ -53,6 +53,7 @@ pub fn run(event_loop: EventLoop<()>, gpu: &Gpu, renderer: &mut Renderer, option
         orbit: home,
         home,
         dragging: false,
+        orbit_moved: false,
         cursor: None,
         presented: 0,
         smoothed: Vec::new(),
@@ -125,6 +126,7 @@ struct App<'a> {
     orbit: OrbitCamera,
     home: OrbitCamera,
     dragging: bool,
+    orbit_moved: bool,
     cursor: Option<PhysicalPosition<f64>>,
     presented: u64,
     /// Exponential moving average of each pass's GPU time.
@@ -163,7 +165,10 @@ impl App<'_> {
             swapchain.recreate(self.gpu, [size.width, size.height])?;
         }
         let Some(image) = swapchain.acquire(self.gpu)? else { return Ok(()) };
-        self.renderer.set_camera(self.orbit.camera());
+        if self.orbit_moved {
+            // Only once the user moved it: the scene's own camera is kept bit-exact until then.
+            self.renderer.set_camera(self.orbit.camera());
+        }
         let timings = self.renderer.render_presenting(self.gpu, &image)?;
         window.pre_present_notify();
         swapchain.present(self.gpu, image)?;
@@ -224,7 +229,10 @@ impl App<'_> {
                     eprintln!("viewer: {}", if s.per_vertex { "per-vertex shading" } else { "per-pixel shading" });
                     self.smoothed.clear();
                 }
-                "r" | "R" => self.orbit = self.home,
+                "r" | "R" => {
+                    self.orbit = self.home;
+                    self.orbit_moved = true;
+                }
                 "+" | "=" => self.renderer.settings.exposure *= 1.25,
                 "-" | "_" => self.renderer.settings.exposure /= 1.25,
                 _ => {}
@@ -266,13 +274,17 @@ impl App<'_> {
             WindowEvent::CursorMoved { position, .. } => {
                 if let (true, Some(last)) = (self.dragging, self.cursor) {
                     self.orbit.rotate((position.x - last.x) as f32, (position.y - last.y) as f32);
+                    self.orbit_moved = true;
                 }
                 self.cursor = Some(position);
             }
-            WindowEvent::MouseWheel { delta, .. } => self.orbit.zoom(match delta {
-                MouseScrollDelta::LineDelta(_, y) => y,
-                MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
-            }),
+            WindowEvent::MouseWheel { delta, .. } => {
+                self.orbit.zoom(match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                });
+                self.orbit_moved = true;
+            }
             _ => {}
         }
         Ok(())
