@@ -16,21 +16,46 @@ const float LOBES_MAX_EXPONENT = 1.0e5;
 const float LOBES_NEG_INF = -3.0e38;
 const float LOBES_CAP_MIN_ALPHA = 1.0e-4;
 
-// log(1 + x) without losing x when |x| << 1 (Goldberg: the rounding of 1 + x cancels in the
-// ratio). 'precise' keeps the compiler from folding (u - 1) back into x.
+// log(1 + x) without losing x when |x| << 1. For |x| < 0.5 by arithmetic only: 2 atanh(z),
+// z = x/(2 + x), |z| <= 1/3, odd series to z^17 (truncation < 2e-9 relative). GLSL log near 1 is
+// accurate only absolutely (Vulkan allows 2^-21; lavapipe's errs by ~7e-8), so the classic
+// log(u) * x/(u - 1) lost up to 16 % of log1p(-4e-7) on lavapipe, 0.7 % of a lobe value at e = 1e5
+// (found by tests/tests/math_gpu_lobes.rs). Below -0.5, 1 + x is exact and log is 3 ulp relative.
 float lobes_log1p(float x) {
-    precise float u = 1.0 + x;
-    precise float d = u - 1.0;
-    if (d == 0.0) {
-        return x;
+    if (abs(x) < 0.5) {
+        float z = x / (2.0 + x);
+        float z2 = z * z;
+        float p = 1.0 / 17.0;
+        p = p * z2 + 1.0 / 15.0;
+        p = p * z2 + 1.0 / 13.0;
+        p = p * z2 + 1.0 / 11.0;
+        p = p * z2 + 1.0 / 9.0;
+        p = p * z2 + 1.0 / 7.0;
+        p = p * z2 + 1.0 / 5.0;
+        p = p * z2 + 1.0 / 3.0;
+        return 2.0 * z + 2.0 * z * z2 * p;
     }
-    return log(u) * (x / d);
+    return log(1.0 + x);
 }
 
 // ln cos x for |x| < pi/2, accurate near 0: log1p(-2 sin^2(x/2)).
 float lobes_ln_cos(float x) {
     float h = sin(0.5 * x);
     return lobes_log1p(max(-2.0 * h * h, -1.0));
+}
+
+// pi/2 - float(pi/2): with it, pi/2 - x = (LOBES_HALF_PI - x) + LOBES_HALF_PI_LO keeps its digits
+// for x near pi/2 (the first difference is exact).
+const float LOBES_HALF_PI_LO = -4.37113883e-8;
+// ln cos x for x in [0, pi/2], accurate near both ends: near pi/2, ln sin(pi/2 - x) (1 - 2 sin^2
+// cancels there). pi/2 - x is floored at 6e-8, the resolution of an f32 angle near pi/2: an angle
+// rounded onto or past pi/2 gives a large negative value, not -inf (see lobe_product_log_peak).
+float lobes_ln_cos_to_half_pi(float x) {
+    if (x < 0.785398) {
+        return lobes_ln_cos(x);
+    }
+    float m = max((LOBES_HALF_PI - x) + LOBES_HALF_PI_LO, 6.0e-8);
+    return log(sin(m));
 }
 
 // Angle between unit vectors via atan2 (accurate near 0 and pi).
@@ -68,13 +93,22 @@ float lobe_sphere_integral(float s, float e) {
 
 // Axis angle t of the product lobe from a1 towards a2: e1 tan t = e2 tan(alpha - t), solved as
 // t = (alpha + asin((e2 - e1)/(e1 + e2) sin alpha)) / 2 (twin of lobes::product_axis_angle).
+// asin(x) is written atan2(x, sqrt((1 - x)(1 + x))): GLSL asin is loose (lavapipe errs by up to
+// 3.9e-4, the spec allows more), atan2 by 3.4e-6 (measured by tests/tests/math_gpu_sg.rs).
 float lobe_product_axis_angle(float e1, float e2, float alpha) {
     float sum = e1 + e2;
     float r = (sum > 0.0) ? (e2 - e1) / sum : 0.0;
-    return 0.5 * (alpha + asin(clamp(r * sin(alpha), -1.0, 1.0)));
+    float x = clamp(r * sin(alpha), -1.0, 1.0);
+    return 0.5 * (alpha + atan(x, sqrt((1.0 - x) * (1.0 + x))));
 }
 
 // ln(c1(a_r) c2(a_r)) for unit scales (twin of lobes::product_log_peak).
+// For alpha < pi, t and alpha - t lie in [0, pi/2) exactly, but in f32 (and through the GPU's atan2,
+// 3.4e-6 on lavapipe) they can round onto or past pi/2 when one exponent is below ~1e-5 of the
+// other; testing cos > 0 then returned -inf (a zero product) where the broad lobe is still ~1 at
+// its horizon and the product is not small (found by tests/tests/math_gpu_lobes.rs: e1 = 2e-4,
+// e2 = 2.3e4, alpha = 1.58 gave -inf for -0.91). lobes_ln_cos_to_half_pi floors the distance to pi/2
+// at the f32 resolution instead.
 float lobe_product_log_peak(float e1, float e2, float alpha) {
     if (alpha >= LOBES_PI) {
         return LOBES_NEG_INF;
@@ -82,10 +116,10 @@ float lobe_product_log_peak(float e1, float e2, float alpha) {
     float t = lobe_product_axis_angle(e1, e2, alpha);
     float l = 0.0;
     if (e1 != 0.0) {
-        l += (cos(t) > 0.0) ? e1 * lobes_ln_cos(t) : LOBES_NEG_INF;
+        l += e1 * lobes_ln_cos_to_half_pi(abs(t));
     }
     if (e2 != 0.0) {
-        l += (cos(alpha - t) > 0.0) ? e2 * lobes_ln_cos(alpha - t) : LOBES_NEG_INF;
+        l += e2 * lobes_ln_cos_to_half_pi(abs(alpha - t));
     }
     return max(l, LOBES_NEG_INF);
 }
@@ -180,9 +214,11 @@ float lobe_cap_exponent(float k, float alpha) {
 }
 
 // Half-angle of the cone a sphere subtends from x; pi/2 inside it (twin of lobes::sphere_cap_angle).
+// asin(r/d) as atan2(r, sqrt((d - r)(d + r))): accurate GPU atan2 instead of loose asin (see
+// lobe_product_axis_angle), and no cancellation in 1 - (r/d)^2 as r/d -> 1.
 float lobe_sphere_cap_angle(vec3 center, float radius, vec3 x) {
     float d = length(center - x);
-    return (d <= radius) ? LOBES_HALF_PI : asin(radius / d);
+    return (d <= radius) ? LOBES_HALF_PI : atan(radius, sqrt((d - radius) * (d + radius)));
 }
 
 // Lafortune lobe (C, rho, e) for outgoing direction v_o as a cosine lobe (paper Eq. 30; twin of
