@@ -8,6 +8,8 @@ pub use engine_math as math;
 
 pub mod gpu;
 
+pub mod metrics;
+
 pub mod output;
 pub mod passes;
 pub mod renderer;

@@ -301,6 +301,11 @@ impl Renderer {
         self.technique.name()
     }
 
+    /// The current technique, for technique-specific controls (see `Technique::as_any_mut`).
+    pub fn technique_mut(&mut self) -> &mut dyn Technique {
+        self.technique.as_mut()
+    }
+
     pub fn set_camera(&mut self, camera: Camera) {
         self.camera = camera;
     }

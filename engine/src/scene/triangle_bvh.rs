@@ -176,7 +176,11 @@ impl TriangleBvh {
             .iter()
             .map(|&i| {
                 let t = &triangles[i as usize];
-                GpuTriangle { v0: t[0].extend(0.0).to_array(), v1: t[1].extend(0.0).to_array(), v2: t[2].extend(0.0).to_array() }
+                GpuTriangle {
+                    v0: t[0].extend(0.0).to_array(),
+                    v1: t[1].extend(0.0).to_array(),
+                    v2: t[2].extend(0.0).to_array(),
+                }
             })
             .collect();
         Self { nodes, triangles: tris }
@@ -239,13 +243,21 @@ impl TriangleBvh {
 }
 
 /// Binned SAH: the best (axis, last bin of the left side, cost) if it beats a leaf.
-fn best_split(idx: &[u32], bounds: &[Aabb], centroids: &[Vec3], cb: &Aabb, nb: &Aabb, count: usize) -> Option<(usize, usize, f32)> {
+fn best_split(
+    idx: &[u32],
+    bounds: &[Aabb],
+    centroids: &[Vec3],
+    cb: &Aabb,
+    nb: &Aabb,
+    count: usize,
+) -> Option<(usize, usize, f32)> {
     let leaf_cost = count as f32;
     let parent_area = nb.area().max(f32::MIN_POSITIVE);
     let mut best: Option<(usize, usize, f32)> = None;
+    #[allow(clippy::needless_range_loop)] // `axis` indexes Vec3 lanes of several arrays
     for axis in 0..3 {
         let extent = cb.hi[axis] - cb.lo[axis];
-        if !(extent > 0.0) {
+        if extent.is_nan() || extent <= 0.0 {
             continue;
         }
         let scale = BINS as f32 / extent;

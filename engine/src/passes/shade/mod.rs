@@ -3,6 +3,7 @@
 //! writes one radiance target, per pixel or per vertex, from the same GLSL `shade_point`.
 
 pub mod none;
+pub mod reference;
 
 use crate::gpu::{Binding, ComputePipeline, Gpu, Image, Recorder, Result};
 use crate::passes::gbuffer::GBuffer;
@@ -29,15 +30,20 @@ pub trait Technique {
     /// Record shading into `target`.
     fn record(&self, rec: &mut Recorder, inputs: &ShadeInputs, target: ShadeTarget) -> Result<()>;
     fn destroy(self: Box<Self>, gpu: &Gpu);
+    /// Technique-specific controls (e.g. the reference's sample counts), reached by downcasting.
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        None
+    }
 }
 
 /// Names accepted by [`create_technique`].
-pub const TECHNIQUES: &[&str] = &["none"];
+pub const TECHNIQUES: &[&str] = &["none", "reference"];
 
 /// A technique by name (`none`; `isg`, `lobes`, `shexp` and `reference` plug in here).
 pub fn create_technique(gpu: &Gpu, name: &str) -> Result<Box<dyn Technique>> {
     match name {
         "none" => Ok(Box::new(none::NoShadows::new(gpu)?)),
+        "reference" => Ok(Box::new(reference::Reference::new(gpu)?)),
         other => Err(crate::gpu::GpuError::Other(format!(
             "unknown technique '{other}' (available: {})",
             TECHNIQUES.join(", ")

@@ -1,0 +1,668 @@
+//! Technique `reference` (shaders-glsl/shade/reference): the Monte Carlo ground truth of
+//! DESIGN.md §4. Per G-buffer pixel (or per vertex) it integrates environment × BRDF × visibility
+//! plus the scene's spherical lights, with environment importance sampling (luminance × texel
+//! solid angle, marginal and conditional CDFs built here), light sampling (uniform in the cone a
+//! sphere subtends) and BRDF sampling (cosine / Blinn-Phong lobe), combined by the power heuristic.
+//! Visibility is traced against the real triangles through a binned-SAH BVH
+//! ([`crate::scene::triangle_bvh`]) or switched off ([`Visibility::Unoccluded`]).
+//!
+//! Samples are deterministic (PCG hash of item, sample index and seed) and accumulate over frames
+//! (Welford mean and M2 per item in device buffers) until the view changes, so the engine knows the
+//! reference's own standard error ([`ReferenceStats`]) and can stop when it is a stated fraction of
+//! the error being measured ([`converge`], [`converge_against`]).
+
+use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
+use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
+use crate::passes::layout::{FrameData, GpuObject, GpuVertex};
+use crate::renderer::{GpuScene, Renderer};
+use crate::scene::triangle_bvh::{TriNode, TriangleBvh};
+use bytemuck::{Pod, Zeroable};
+use engine_math::envmap::{texel_solid_angle, LatLongMap};
+use glam::{Mat4, Vec3, Vec4};
+use std::cell::{Cell, RefCell};
+
+/// Push constants (`Params` in integrate.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ReferenceParams {
+    pub sample_base: u32,
+    pub samples: u32,
+    pub seed: u32,
+    pub light_count: u32,
+    pub env_width: u32,
+    pub env_height: u32,
+    pub visibility: u32,
+    pub item_count: u32,
+    pub ray_offset: f32,
+    pub env_total: f32,
+    pub pad: [f32; 2],
+}
+
+/// `SphereLightGpu` in integrate.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuSphereLight {
+    pub center_radius: [f32; 4],
+    pub radiance: [f32; 4],
+}
+
+/// What blocks the rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Visibility {
+    /// The scene's triangles (the ground truth).
+    Triangles,
+    /// Nothing (unshadowed lighting, for the decomposition of error and closed-form checks).
+    Unoccluded,
+}
+
+/// Controls of the reference. Changing them restarts accumulation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceOptions {
+    /// Samples per item added by each frame (each sample traces up to three rays).
+    pub samples_per_frame: u32,
+    pub seed: u32,
+    pub visibility: Visibility,
+    /// Ray origins move this far along the normal, as a fraction of the scene's bounding-box
+    /// diagonal (self-intersection guard; contact shadows closer than this are lost).
+    pub ray_offset: f32,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        Self { samples_per_frame: 4, seed: 1, visibility: Visibility::Triangles, ray_offset: 1e-4 }
+    }
+}
+
+/// The largest sample count per item (the shader's sample counts are exact in f32 below 2^24).
+pub const MAX_SAMPLES: u32 = 1 << 24;
+
+/// Environment importance sampling: texel (row, col) is chosen with probability proportional to
+/// luminance × solid angle, as marginal (rows) and conditional (columns in a row) CDFs; the
+/// direction is uniform in (u, v) inside the texel, so its solid-angle density is
+/// `P · W · H / (2π² sin θ)`. The shader uses the f32 CDF differences as probabilities, which is
+/// exactly the distribution its binary search samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvSampling {
+    pub width: usize,
+    pub height: usize,
+    /// H + 1 entries, 0 … 1.
+    pub marginal: Vec<f32>,
+    /// H × (W + 1) entries, each row 0 … 1.
+    pub conditional: Vec<f32>,
+    /// Σ luminance × solid angle (0 for a black map, whose CDFs are then uniform).
+    pub total: f64,
+}
+
+fn luminance(t: [f32; 3]) -> f64 {
+    0.2126 * t[0] as f64 + 0.7152 * t[1] as f64 + 0.0722 * t[2] as f64
+}
+
+impl EnvSampling {
+    pub fn build(env: &LatLongMap) -> Result<Self> {
+        let (w, h) = (env.width, env.height);
+        if w == 0 || h == 0 || env.texels.len() != w * h {
+            return Err(GpuError::Other(format!("environment {w}x{h} with {} texels", env.texels.len())));
+        }
+        if let Some(i) = env.texels.iter().position(|t| t.iter().any(|c| !c.is_finite() || *c < 0.0)) {
+            return Err(GpuError::Other(format!(
+                "environment texel {i} is negative or not finite: {:?}",
+                env.texels[i]
+            )));
+        }
+        let weight = |row: usize, col: usize| luminance(env.texel(col, row)) * texel_solid_angle(row, w, h);
+        let total: f64 = (0..h).flat_map(|r| (0..w).map(move |c| (r, c))).map(|(r, c)| weight(r, c)).sum();
+        // A black map keeps uniform CDFs (its radiance is zero wherever they sample).
+        let black = total.is_nan() || total <= 0.0;
+        let weight = |row: usize, col: usize| if black { texel_solid_angle(row, w, h) } else { weight(row, col) };
+        let mut conditional = Vec::with_capacity(h * (w + 1));
+        let mut row_sums = Vec::with_capacity(h);
+        for row in 0..h {
+            let sum: f64 = (0..w).map(|c| weight(row, c)).sum();
+            row_sums.push(sum);
+            let mut acc = 0.0;
+            conditional.push(0.0f32);
+            for col in 0..w {
+                acc += if sum > 0.0 { weight(row, col) / sum } else { 1.0 / w as f64 };
+                conditional.push(if col + 1 == w { 1.0 } else { acc.min(1.0) as f32 });
+            }
+        }
+        let all: f64 = row_sums.iter().sum();
+        let mut marginal = Vec::with_capacity(h + 1);
+        marginal.push(0.0f32);
+        let mut acc = 0.0;
+        for (row, s) in row_sums.iter().enumerate() {
+            acc += s / all;
+            marginal.push(if row + 1 == h { 1.0 } else { acc.min(1.0) as f32 });
+        }
+        Ok(Self { width: w, height: h, marginal, conditional, total: if black { 0.0 } else { total } })
+    }
+
+    /// Probability of texel (col, row), as the shader computes it.
+    pub fn texel_probability(&self, col: usize, row: usize) -> f64 {
+        let w1 = self.width + 1;
+        (self.marginal[row + 1] - self.marginal[row]) as f64
+            * (self.conditional[row * w1 + col + 1] - self.conditional[row * w1 + col]) as f64
+    }
+}
+
+/// Per-item accumulation (Welford mean and M2, `vec4` each).
+struct Accum {
+    mean: Buffer,
+    m2: Buffer,
+    items: u32,
+}
+
+impl Accum {
+    fn new(gpu: &Gpu, name: &str, items: u32) -> Result<Self> {
+        let bytes = items.max(1) as u64 * 16;
+        let mean = gpu.create_buffer(&format!("{name}-mean"), BufferDesc::gpu_only(bytes))?;
+        match gpu.create_buffer(&format!("{name}-m2"), BufferDesc::gpu_only(bytes)) {
+            Ok(m2) => Ok(Self { mean, m2, items }),
+            Err(e) => {
+                gpu.destroy_buffer(mean);
+                Err(e)
+            }
+        }
+    }
+    fn destroy(self, gpu: &Gpu) {
+        gpu.destroy_buffer(self.mean);
+        gpu.destroy_buffer(self.m2);
+    }
+}
+
+/// Everything `prepare` derives from the scene.
+struct Tables {
+    marginal: Buffer,
+    conditional: Buffer,
+    nodes: Buffer,
+    triangles: Buffer,
+    lights: Buffer,
+    /// Count of non-finite samples since `prepare` (host-visible).
+    diagnostics: Buffer,
+    vertex_accum: Accum,
+    env_size: (u32, u32),
+    env_total: f32,
+    light_count: u32,
+    scene_diagonal: f32,
+}
+
+impl Tables {
+    fn destroy(self, gpu: &Gpu) {
+        for b in [self.marginal, self.conditional, self.nodes, self.triangles, self.lights, self.diagnostics] {
+            gpu.destroy_buffer(b);
+        }
+        self.vertex_accum.destroy(gpu);
+    }
+}
+
+/// World-space triangles of the scene, read back from the scene's device buffers (object-space
+/// vertices, indices, per-instance transforms), transformed as the `skin` pass does.
+fn world_triangles(gpu: &Gpu, scene: &GpuScene) -> Result<Vec<[Vec3; 3]>> {
+    let vertices: Vec<GpuVertex> = gpu.read_buffer(&scene.vertices)?;
+    let indices: Vec<u32> = gpu.read_buffer(&scene.indices)?;
+    let objects: Vec<GpuObject> = gpu.read_buffer(&scene.objects)?;
+    let world: Vec<Vec3> = vertices[..scene.vertex_count as usize]
+        .iter()
+        .map(|v| {
+            let model =
+                objects.get(v.position[3] as usize).map(|o| Mat4::from_cols_array(&o.model)).unwrap_or(Mat4::IDENTITY);
+            (model * Vec4::new(v.position[0], v.position[1], v.position[2], 1.0)).truncate()
+        })
+        .collect();
+    indices[..scene.index_count as usize]
+        .chunks_exact(3)
+        .map(|t| {
+            let get = |i: u32| {
+                world
+                    .get(i as usize)
+                    .copied()
+                    .ok_or_else(|| GpuError::Other(format!("reference: index {i} out of range")))
+            };
+            Ok([get(t[0])?, get(t[1])?, get(t[2])?])
+        })
+        .collect()
+}
+
+/// Deepest BVH the GLSL traversal stack (`TRACE_STACK` in trace.glsl) holds.
+const TRACE_STACK: usize = 64;
+
+/// The reference technique.
+pub struct Reference {
+    pipelines: TargetPipelines,
+    options: ReferenceOptions,
+    tables: Option<Tables>,
+    pixel_accum: RefCell<Option<Accum>>,
+    pixel_samples: Cell<u32>,
+    vertex_samples: Cell<u32>,
+    /// The view the accumulated samples belong to (frame constants without the exposure).
+    view: Cell<Option<FrameData>>,
+}
+
+/// Accumulated statistics per item (pixel, row-major from the top-left, or vertex).
+#[derive(Clone, Debug)]
+pub struct ReferenceStats {
+    /// Samples per covered item.
+    pub samples: u32,
+    pub mean: Vec<[f32; 3]>,
+    /// Standard error of each mean, per channel (infinite below two samples).
+    pub stderr: Vec<[f32; 3]>,
+    /// Items that are surfaces (background pixels are not).
+    pub covered: Vec<bool>,
+    /// Samples that came out NaN or infinite since `prepare` (counted, replaced by zero).
+    pub nonfinite_samples: u32,
+}
+
+impl ReferenceStats {
+    /// sqrt(Σ se²) / sqrt(Σ mean²) over covered items and channels: the expected relative RMSE of
+    /// the reference against the exact answer, in the form of the relative RMSE of a measurement.
+    pub fn relative_stderr(&self) -> f64 {
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for ((m, s), c) in self.mean.iter().zip(&self.stderr).zip(&self.covered) {
+            if !*c {
+                continue;
+            }
+            for k in 0..3 {
+                num += (s[k] as f64) * (s[k] as f64);
+                den += (m[k] as f64) * (m[k] as f64);
+            }
+        }
+        if den > 0.0 {
+            (num / den).sqrt()
+        } else if num > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        }
+    }
+}
+
+impl Reference {
+    pub fn new(gpu: &Gpu) -> Result<Self> {
+        Ok(Self {
+            pipelines: TargetPipelines::new(gpu, "reference")?,
+            options: ReferenceOptions::default(),
+            tables: None,
+            pixel_accum: RefCell::new(None),
+            pixel_samples: Cell::new(0),
+            vertex_samples: Cell::new(0),
+            view: Cell::new(None),
+        })
+    }
+
+    pub fn options(&self) -> ReferenceOptions {
+        self.options
+    }
+
+    /// New options; accumulation restarts.
+    pub fn set_options(&mut self, options: ReferenceOptions) -> Result<()> {
+        if options.samples_per_frame == 0 || options.samples_per_frame > 4096 {
+            return Err(GpuError::Other(format!(
+                "reference: samples per frame {} not in 1..=4096",
+                options.samples_per_frame
+            )));
+        }
+        if !(options.ray_offset >= 0.0 && options.ray_offset < 0.1) {
+            return Err(GpuError::Other(format!("reference: ray offset {} not in [0, 0.1)", options.ray_offset)));
+        }
+        self.options = options;
+        self.reset();
+        Ok(())
+    }
+
+    /// Discard accumulated samples (the next frame starts again from sample 0).
+    pub fn reset(&self) {
+        self.pixel_samples.set(0);
+        self.vertex_samples.set(0);
+    }
+
+    /// Samples accumulated per item for the pixel (`per_vertex == false`) or vertex target.
+    pub fn samples(&self, per_vertex: bool) -> u32 {
+        if per_vertex {
+            self.vertex_samples.get()
+        } else {
+            self.pixel_samples.get()
+        }
+    }
+
+    /// Read the accumulated statistics of the pixel or vertex target back to the host.
+    pub fn stats(&self, gpu: &Gpu, per_vertex: bool) -> Result<ReferenceStats> {
+        let tables = self.tables.as_ref().ok_or_else(|| GpuError::Other("reference: stats before prepare()".into()))?;
+        let pixel = self.pixel_accum.borrow();
+        let accum = if per_vertex {
+            &tables.vertex_accum
+        } else {
+            pixel.as_ref().ok_or_else(|| GpuError::Other("reference: no pixel samples yet".into()))?
+        };
+        let n = self.samples(per_vertex);
+        let mean: Vec<[f32; 4]> = gpu.read_buffer(&accum.mean)?;
+        let m2: Vec<[f32; 4]> = gpu.read_buffer(&accum.m2)?;
+        let diag: Vec<u32> = tables.diagnostics.read()?;
+        let items = accum.items as usize;
+        let stderr = |m: f32| {
+            if n < 2 {
+                f32::INFINITY
+            } else {
+                (m.max(0.0) as f64 / ((n - 1) as f64 * n as f64)).sqrt() as f32
+            }
+        };
+        Ok(ReferenceStats {
+            samples: n,
+            mean: mean[..items].iter().map(|m| [m[0], m[1], m[2]]).collect(),
+            stderr: m2[..items].iter().map(|m| [stderr(m[0]), stderr(m[1]), stderr(m[2])]).collect(),
+            covered: mean[..items].iter().map(|m| m[3] > 0.5).collect(),
+            nonfinite_samples: diag.first().copied().unwrap_or(0),
+        })
+    }
+
+    fn destroy_tables(&mut self, gpu: &Gpu) {
+        if let Some(t) = self.tables.take() {
+            t.destroy(gpu);
+        }
+        if let Some(a) = self.pixel_accum.get_mut().take() {
+            a.destroy(gpu);
+        }
+        self.reset();
+    }
+
+    fn build_tables(gpu: &Gpu, scene: &GpuScene) -> Result<Tables> {
+        let env = EnvSampling::build(&scene.environment_cpu)?;
+        let triangles = world_triangles(gpu, scene)?;
+        let bvh = TriangleBvh::build(&triangles);
+        let depth = bvh.depth();
+        if depth >= TRACE_STACK {
+            return Err(GpuError::Other(format!(
+                "reference: triangle BVH depth {depth} exceeds the traversal stack ({TRACE_STACK})"
+            )));
+        }
+        let scene_diagonal =
+            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.max) - Vec3::from(n.min)).length());
+        let mut lights: Vec<GpuSphereLight> = Vec::with_capacity(scene.lights.len());
+        for (i, l) in scene.lights.iter().enumerate() {
+            if l.radius.is_nan() || l.radius <= 0.0 || !l.center.is_finite() || !l.radius.is_finite() {
+                return Err(GpuError::Other(format!(
+                    "light {i}: radius {} at {} is not a positive finite sphere",
+                    l.radius, l.center
+                )));
+            }
+            if !l.radiance.is_finite() || l.radiance.min_element() < 0.0 {
+                return Err(GpuError::Other(format!("light {i}: radiance {} is negative or not finite", l.radiance)));
+            }
+            lights.push(GpuSphereLight {
+                center_radius: l.center.extend(l.radius).to_array(),
+                radiance: l.radiance.extend(0.0).to_array(),
+            });
+        }
+        let mut made: Vec<Buffer> = Vec::new();
+        let built = (|| -> Result<()> {
+            made.push(gpu.upload_buffer("reference-env-marginal", BufferDesc::gpu_only(0), &env.marginal)?);
+            made.push(gpu.upload_buffer("reference-env-conditional", BufferDesc::gpu_only(0), &env.conditional)?);
+            made.push(gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?);
+            made.push(gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles)?);
+            made.push(gpu.upload_buffer("reference-lights", BufferDesc::gpu_only(0), &lights)?);
+            let mut diag = gpu.create_buffer("reference-diagnostics", BufferDesc::readback(16))?;
+            let zeroed = diag.write(&[0u32; 4]);
+            made.push(diag);
+            zeroed
+        })();
+        let vertex_accum = built.and_then(|_| Accum::new(gpu, "reference-vertex-accum", scene.vertex_count));
+        let vertex_accum = match vertex_accum {
+            Ok(a) => a,
+            Err(e) => {
+                for b in made {
+                    gpu.destroy_buffer(b);
+                }
+                return Err(e);
+            }
+        };
+        let mut it = made.into_iter();
+        let mut next = || it.next().ok_or_else(|| GpuError::Other("internal: reference buffer list".into()));
+        Ok(Tables {
+            marginal: next()?,
+            conditional: next()?,
+            nodes: next()?,
+            triangles: next()?,
+            lights: next()?,
+            diagnostics: next()?,
+            vertex_accum,
+            env_size: (env.width as u32, env.height as u32),
+            env_total: env.total as f32,
+            light_count: lights.len() as u32,
+            scene_diagonal,
+        })
+    }
+}
+
+impl Technique for Reference {
+    fn name(&self) -> &'static str {
+        "reference"
+    }
+
+    fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
+        self.destroy_tables(gpu);
+        self.tables = Some(Self::build_tables(gpu, scene)?);
+        self.view.set(None);
+        Ok(())
+    }
+
+    fn record(&self, rec: &mut Recorder, inputs: &ShadeInputs, target: ShadeTarget) -> Result<()> {
+        let Some(t) = &self.tables else {
+            return Err(GpuError::Other("technique 'reference' recorded before prepare()".into()));
+        };
+        let s = inputs.scene;
+        // A new view (camera, resolution) restarts accumulation; exposure does not change radiance.
+        let mut view = s.frame.read::<FrameData>()?.first().copied().unwrap_or_default();
+        view.params[1] = 0.0;
+        if self.view.get() != Some(view) {
+            self.reset();
+            self.view.set(Some(view));
+        }
+        let (counter, items, name) = match target {
+            ShadeTarget::Pixel { radiance, .. } => {
+                (&self.pixel_samples, radiance.desc.width * radiance.desc.height, "shade/reference")
+            }
+            ShadeTarget::Vertex => (&self.vertex_samples, s.vertex_count, "shade/reference (per vertex)"),
+        };
+        if let ShadeTarget::Pixel { .. } = target {
+            let mut slot = self.pixel_accum.borrow_mut();
+            if slot.as_ref().is_none_or(|a| a.items != items) {
+                // No frame is in flight while recording (run_frame waits), so the old buffers are free.
+                if let Some(old) = slot.take() {
+                    old.destroy(rec.gpu());
+                }
+                *slot = Some(Accum::new(rec.gpu(), "reference-pixel-accum", items)?);
+                counter.set(0);
+            }
+        }
+        let base = counter.get();
+        let samples = self.options.samples_per_frame;
+        if base as u64 + samples as u64 > MAX_SAMPLES as u64 {
+            return Err(GpuError::Other(format!("reference: {base} samples accumulated; at most {MAX_SAMPLES}")));
+        }
+        let params = ReferenceParams {
+            sample_base: base,
+            samples,
+            seed: self.options.seed,
+            light_count: t.light_count,
+            env_width: t.env_size.0,
+            env_height: t.env_size.1,
+            visibility: match self.options.visibility {
+                Visibility::Triangles => 0,
+                Visibility::Unoccluded => 1,
+            },
+            item_count: items,
+            ray_offset: self.options.ray_offset * t.scene_diagonal,
+            env_total: t.env_total,
+            pad: [0.0; 2],
+        };
+        let pixel = self.pixel_accum.borrow();
+        let accum = match target {
+            ShadeTarget::Pixel { .. } => {
+                pixel.as_ref().ok_or_else(|| GpuError::Other("internal: pixel accumulation".into()))?
+            }
+            ShadeTarget::Vertex => &t.vertex_accum,
+        };
+        let mut b = vec![
+            Binding::buffer("FrameBuf", &s.frame),
+            Binding::buffer("Materials", &s.materials),
+            Binding::sampled("env_map", &s.environment),
+            Binding::buffer("AccumMean", &accum.mean),
+            Binding::buffer("AccumM2", &accum.m2),
+            Binding::buffer("EnvMarginal", &t.marginal),
+            Binding::buffer("EnvConditional", &t.conditional),
+            Binding::buffer("TriNodes", &t.nodes),
+            Binding::buffer("Tris", &t.triangles),
+            Binding::buffer("Lights", &t.lights),
+            Binding::buffer("Diagnostics", &t.diagnostics),
+        ];
+        rec.begin_pass(name);
+        let push = bytemuck::bytes_of(&params);
+        match target {
+            ShadeTarget::Pixel { gbuffer, radiance } => {
+                b.push(Binding::storage_image("gbuf_position", &gbuffer.position));
+                b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
+                b.push(Binding::storage_image("radiance", radiance));
+                rec.dispatch(&self.pipelines.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
+            }
+            ShadeTarget::Vertex => {
+                b.push(Binding::buffer("WorldVertices", &s.world_vertices));
+                b.push(Binding::buffer("VertexRadiance", &s.vertex_radiance));
+                rec.dispatch(&self.pipelines.vertex, &b, push, [s.vertex_count, 1, 1])?;
+            }
+        }
+        counter.set(base + samples);
+        Ok(())
+    }
+
+    fn destroy(mut self: Box<Self>, gpu: &Gpu) {
+        self.destroy_tables(gpu);
+        let this = *self;
+        this.pipelines.destroy(gpu);
+    }
+
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        Some(self)
+    }
+}
+
+/// The renderer's technique as the reference, if it is one.
+pub fn reference_mut(renderer: &mut Renderer) -> Option<&mut Reference> {
+    renderer.technique_mut().as_any_mut()?.downcast_mut::<Reference>()
+}
+
+/// How a [`converge`] run ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConvergeReport {
+    pub samples: u32,
+    pub frames: u32,
+    /// [`ReferenceStats::relative_stderr`] at the end.
+    pub relative_stderr: f64,
+    /// The stopping rule held (false: `max_samples` was reached first).
+    pub converged: bool,
+}
+
+/// Render frames with the renderer's reference technique until `done(stats)` holds or
+/// `max_samples` samples per item are accumulated; returns the final statistics as well.
+pub fn converge_until(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    max_samples: u32,
+    mut done: impl FnMut(&ReferenceStats) -> bool,
+) -> Result<(ConvergeReport, ReferenceStats)> {
+    let per_vertex = renderer.settings.per_vertex;
+    let mut frames = 0;
+    loop {
+        renderer.render(gpu)?;
+        frames += 1;
+        let r = reference_mut(renderer)
+            .ok_or_else(|| GpuError::Other("converge: the technique is not 'reference'".into()))?;
+        let stats = r.stats(gpu, per_vertex)?;
+        let converged = stats.samples >= 2 && done(&stats);
+        let next = stats.samples as u64 + r.options().samples_per_frame as u64;
+        if converged || next > max_samples.min(MAX_SAMPLES) as u64 {
+            let report =
+                ConvergeReport { samples: stats.samples, frames, relative_stderr: stats.relative_stderr(), converged };
+            return Ok((report, stats));
+        }
+    }
+}
+
+/// Accumulate until the reference's relative standard error is at most `target_rel_stderr`.
+pub fn converge(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    target_rel_stderr: f64,
+    max_samples: u32,
+) -> Result<(ConvergeReport, ReferenceStats)> {
+    converge_until(gpu, renderer, max_samples, |s| s.relative_stderr() <= target_rel_stderr)
+}
+
+/// Accumulate until the reference's relative standard error is at most `fraction` of the relative
+/// RMSE of `measured` (one RGB value per item, e.g. a technique's image) against the reference:
+/// the reference is then good enough to measure that error.
+pub fn converge_against(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    measured: &[[f32; 3]],
+    fraction: f64,
+    max_samples: u32,
+) -> Result<(ConvergeReport, ReferenceStats)> {
+    converge_until(gpu, renderer, max_samples, |s| {
+        let err = crate::metrics::relative_rmse_items(measured, &s.mean, &s.covered);
+        s.relative_stderr() <= fraction * err
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn std430_layouts() {
+        assert_eq!(size_of::<ReferenceParams>(), 48);
+        assert_eq!(offset_of!(ReferenceParams, ray_offset), 32);
+        assert_eq!(offset_of!(ReferenceParams, env_total), 36);
+        assert_eq!(size_of::<GpuSphereLight>(), 32);
+        assert_eq!(offset_of!(GpuSphereLight, radiance), 16);
+    }
+
+    #[test]
+    fn env_sampling_probabilities_follow_luminance_times_solid_angle() {
+        let (w, h) = (16, 8);
+        let mut env = LatLongMap::constant(w, h, [0.1, 0.2, 0.3]);
+        env.texels[3 * w + 5] = [50.0, 40.0, 30.0];
+        env.texels[7 * w] = [0.0; 3];
+        let s = EnvSampling::build(&env).expect("tables");
+        assert_eq!(s.marginal.len(), h + 1);
+        assert_eq!(s.conditional.len(), h * (w + 1));
+        assert_eq!((s.marginal[0], s.marginal[h]), (0.0, 1.0));
+        assert!(s.marginal.windows(2).all(|p| p[0] <= p[1]));
+        assert!(s.conditional.chunks(w + 1).all(|r| r[0] == 0.0 && r[w] == 1.0 && r.windows(2).all(|p| p[0] <= p[1])));
+        let mut sum = 0.0;
+        for row in 0..h {
+            for col in 0..w {
+                let p = s.texel_probability(col, row);
+                let want = luminance(env.texel(col, row)) * texel_solid_angle(row, w, h) / s.total;
+                // The f32 CDFs round each entry by ≤ 2^-24 of 1: differences carry ~1e-7 absolute.
+                assert!((p - want).abs() <= 3e-7, "texel ({col},{row}): {p} vs {want}");
+                sum += p;
+            }
+        }
+        assert!((sum - 1.0).abs() < 1e-6);
+        assert_eq!(s.texel_probability(0, 7), 0.0);
+    }
+
+    #[test]
+    fn env_sampling_bad_and_black_maps() {
+        let mut env = LatLongMap::constant(4, 2, [0.0; 3]);
+        let black = EnvSampling::build(&env).expect("black map");
+        assert_eq!(black.total, 0.0);
+        assert!(
+            (black.texel_probability(1, 1) - texel_solid_angle(1, 4, 2) / (4.0 * std::f64::consts::PI)).abs() < 1e-6
+        );
+        env.texels[2] = [f32::NAN, 0.0, 0.0];
+        assert!(EnvSampling::build(&env).is_err());
+        env.texels[2] = [-1.0, 0.0, 0.0];
+        assert!(EnvSampling::build(&env).is_err());
+    }
+}

@@ -1,0 +1,101 @@
+// Ray visibility for the reference: stack traversal of the triangle BVH built on the CPU
+// (twin of engine::scene::triangle_bvh, whose tests check the CPU traversal against brute force).
+#ifndef REFERENCE_TRACE_GLSL
+#define REFERENCE_TRACE_GLSL
+
+// Internal nodes: count == 0, children at first and first + 1. Leaves: tris[first .. first + count].
+struct TriNode {
+    vec3 lo;
+    uint first;
+    vec3 hi;
+    uint count;
+};
+
+struct Tri {
+    vec4 v0;
+    vec4 v1;
+    vec4 v2;
+};
+
+layout(std430, binding = 10) readonly buffer TriNodes { TriNode tri_nodes[]; };
+layout(std430, binding = 11) readonly buffer Tris { Tri tris[]; };
+
+// The host checks that the BVH depth fits (ReferenceTables::build).
+const int TRACE_STACK = 64;
+
+// 1/d with zero components replaced by ±1e-20 first (twin of triangle_bvh::safe_recip).
+vec3 safe_recip(vec3 d) {
+    vec3 s = mix(vec3(-1e-20), vec3(1e-20), greaterThanEqual(d, vec3(0.0)));
+    return 1.0 / mix(d, s, lessThan(abs(d), vec3(1e-20)));
+}
+
+// Entry distance of the ray into node n, or -1 if it misses within [0, t_max].
+float node_entry(vec3 o, vec3 inv_d, uint n, float t_max) {
+    vec3 t0 = (tri_nodes[n].lo - o) * inv_d;
+    vec3 t1 = (tri_nodes[n].hi - o) * inv_d;
+    vec3 a = min(t0, t1);
+    vec3 b = max(t0, t1);
+    float near = max(max(a.x, a.y), max(a.z, 0.0));
+    float far = min(min(b.x, b.y), min(b.z, t_max));
+    return near <= far ? near : -1.0;
+}
+
+// Möller–Trumbore; t in (0, t_max) or -1.
+float intersect_tri(vec3 o, vec3 d, uint k, float t_max) {
+    vec3 p0 = tris[k].v0.xyz;
+    vec3 e1 = tris[k].v1.xyz - p0;
+    vec3 e2 = tris[k].v2.xyz - p0;
+    vec3 p = cross(d, e2);
+    float det = dot(e1, p);
+    if (det == 0.0) return -1.0;
+    float inv = 1.0 / det;
+    vec3 s = o - p0;
+    float u = dot(s, p) * inv;
+    if (u < 0.0 || u > 1.0) return -1.0;
+    vec3 q = cross(s, e1);
+    float v = dot(d, q) * inv;
+    if (v < 0.0 || u + v > 1.0) return -1.0;
+    float t = dot(e2, q) * inv;
+    return (t > 0.0 && t < t_max) ? t : -1.0;
+}
+
+// Nearest hit distance in (0, t_max), or t_max if none; with `any`, the first hit found.
+float trace_triangles(vec3 o, vec3 d, float t_max, bool any_hit) {
+    if (tri_nodes.length() == 0 || tris.length() == 0) return t_max;
+    vec3 inv_d = safe_recip(d);
+    float best = t_max;
+    uint stack[TRACE_STACK];
+    int sp = 0;
+    if (node_entry(o, inv_d, 0u, best) < 0.0) return t_max;
+    stack[sp++] = 0u;
+    while (sp > 0) {
+        uint n = stack[--sp];
+        uint count = tri_nodes[n].count;
+        uint first = tri_nodes[n].first;
+        if (count == 0u) {
+            // Re-test against the current best, push the far child first so the near one pops first.
+            float ta = node_entry(o, inv_d, first, best);
+            float tb = node_entry(o, inv_d, first + 1u, best);
+            if (ta >= 0.0 && tb >= 0.0) {
+                bool a_near = ta <= tb;
+                stack[sp++] = a_near ? first + 1u : first;
+                stack[sp++] = a_near ? first : first + 1u;
+            } else if (ta >= 0.0) {
+                stack[sp++] = first;
+            } else if (tb >= 0.0) {
+                stack[sp++] = first + 1u;
+            }
+            continue;
+        }
+        for (uint k = first; k < first + count; ++k) {
+            float t = intersect_tri(o, d, k, best);
+            if (t > 0.0) {
+                best = t;
+                if (any_hit) return best;
+            }
+        }
+    }
+    return best;
+}
+
+#endif

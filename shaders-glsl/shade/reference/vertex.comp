@@ -1,0 +1,27 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Reference per world-space vertex (two-sided, as target_vertex.glsl); the raster pass interpolates.
+#include "integrate.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 3) readonly buffer WorldVertices { Vertex world[]; };
+layout(std430, binding = 4) writeonly buffer VertexRadiance { vec4 vertex_radiance[]; };
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= frame.size.z) return;
+    Vertex v = world[i];
+    vec3 n = v.normal.xyz;
+    vec3 result = vec3(0.0);
+    if (!(dot(n, n) > 0.0)) {
+        store_fixed(i, result);
+    } else {
+        ShadePoint sp;
+        sp.position = v.position.xyz;
+        sp.view = normalize(frame.eye.xyz - v.position.xyz);
+        n = normalize(n);
+        sp.normal = dot(n, sp.view) < 0.0 ? -n : n;
+        sp.material = materials[uint(v.normal.w)];
+        result = accumulate(i, sp);
+    }
+    vertex_radiance[i] = vec4(result, 1.0);
+}
