@@ -224,6 +224,13 @@ fn lut_warp_consts(lambda: f64) -> (f64, f64) {
     (sq, if edge > 40.0 { 1.0 } else { 1.0 / half_tanh(edge) })
 }
 
+/// The warped table coordinate s ∈ [0, 1] of angle `x` for sharpness λ (twin of
+/// `isg_lut_warp(x, isg_lut_warp_consts(λ))` in isg.glsl).
+pub fn isg_lut_warp(x: f64, lambda: f64) -> f64 {
+    let (sq, inv_edge) = lut_warp_consts(lambda);
+    lut_warp(x, sq, inv_edge)
+}
+
 /// Inverse of [`lut_warp`] by bisection (table generation only; 60 halvings reach f64 resolution).
 fn lut_unwarp(s: f64, sq: f64, inv_edge: f64) -> f64 {
     let (mut lo, mut hi) = (0.0f64, PI);
