@@ -7,6 +7,8 @@
 //! - [`bvh`]: binary LBVH over spheres (Karras 2012), refit, point / cone / angle-cut queries,
 //!   and its std430 node layout.
 //! - [`hierarchy`]: the 4-ary bottom-up sphere hierarchy of SHEXP §6.3 and its per-receiver cut.
+//! - [`traverse`]: bounded-stack traversal of the device node layout (f64 twin of
+//!   `shaders-glsl/common/bvh.glsl`) and a structural check of GPU-built node arrays.
 //! - [`geom`]: sphere primitives (merge, subtended angle, cone test), twins of
 //!   `shaders-glsl/common/spheres.glsl`.
 
@@ -16,6 +18,7 @@ pub mod fit;
 pub mod geom;
 pub mod hierarchy;
 pub mod mesh;
+pub mod traverse;
 
 pub use geom::{Cone, Sphere};
 

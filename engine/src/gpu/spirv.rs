@@ -45,6 +45,10 @@ enum Ty {
 const OP_NAME: u32 = 5;
 const OP_ENTRY_POINT: u32 = 15;
 const OP_EXECUTION_MODE: u32 = 16;
+/// SPIR-V 1.2+; glslang emits `OpExecutionModeId LocalSizeId` for SPIR-V 1.6 (Vulkan 1.3) targets.
+const OP_EXECUTION_MODE_ID: u32 = 331;
+const MODE_LOCAL_SIZE: u32 = 17;
+const MODE_LOCAL_SIZE_ID: u32 = 38;
 const OP_TYPE_INT: u32 = 21;
 const OP_TYPE_FLOAT: u32 = 22;
 const OP_TYPE_VECTOR: u32 = 23;
@@ -91,6 +95,8 @@ pub fn reflect(code: &[u32]) -> Result<Reflection, String> {
     let mut member_offsets: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
     let mut variables: Vec<(u32, u32, u32)> = Vec::new(); // (type, id, storage class)
     let mut local_size = [0u32; 3];
+    // LocalSizeId names constants that are defined later in the module.
+    let mut local_size_ids: Option<[u32; 3]> = None;
     let mut i = 5;
     while i < code.len() {
         let count = (code[i] >> 16) as usize;
@@ -103,8 +109,11 @@ pub fn reflect(code: &[u32]) -> Result<Reflection, String> {
             OP_NAME if !w.is_empty() => {
                 names.insert(w[0], literal_string(&w[1..]));
             }
-            OP_EXECUTION_MODE if w.len() >= 5 && w[1] == 17 => {
+            OP_EXECUTION_MODE if w.len() >= 5 && w[1] == MODE_LOCAL_SIZE => {
                 local_size = [w[2], w[3], w[4]];
+            }
+            OP_EXECUTION_MODE_ID if w.len() >= 5 && w[1] == MODE_LOCAL_SIZE_ID => {
+                local_size_ids = Some([w[2], w[3], w[4]]);
             }
             OP_ENTRY_POINT => {}
             OP_TYPE_INT | OP_TYPE_FLOAT if w.len() >= 2 => {
@@ -153,6 +162,13 @@ pub fn reflect(code: &[u32]) -> Result<Reflection, String> {
             }
         }
         i += count;
+    }
+
+    if let Some(ids) = local_size_ids {
+        for (k, id) in ids.iter().enumerate() {
+            local_size[k] =
+                *constants.get(id).ok_or_else(|| format!("LocalSizeId names {id}, which is not a constant"))?;
+        }
     }
 
     let size_of = |root: u32| -> u32 {
@@ -227,4 +243,32 @@ pub fn reflect(code: &[u32]) -> Result<Reflection, String> {
     }
     out.bindings.sort_by_key(|b| (b.set, b.binding));
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn inst(op: u32, operands: &[u32]) -> Vec<u32> {
+        let mut v = vec![((operands.len() as u32 + 1) << 16) | op];
+        v.extend_from_slice(operands);
+        v
+    }
+
+    // Both ways of declaring the workgroup size reach Reflection::local_size; a size of 0 would make
+    // Recorder::dispatch launch one workgroup per invocation.
+    #[test]
+    fn local_size_and_local_size_id() {
+        let header = [0x0723_0203, 0x0001_0600, 0, 100, 0];
+        let mut literal = header.to_vec();
+        literal.extend(inst(OP_EXECUTION_MODE, &[1, MODE_LOCAL_SIZE, 64, 2, 1]));
+        assert_eq!(reflect(&literal).unwrap().local_size, [64, 2, 1]);
+        let mut by_id = header.to_vec();
+        by_id.extend(inst(OP_EXECUTION_MODE_ID, &[1, MODE_LOCAL_SIZE_ID, 10, 11, 12]));
+        by_id.extend(inst(OP_TYPE_INT, &[9, 32, 0]));
+        for (id, v) in [(10, 256), (11, 1), (12, 1)] {
+            by_id.extend(inst(OP_CONSTANT, &[9, id, v]));
+        }
+        assert_eq!(reflect(&by_id).unwrap().local_size, [256, 1, 1]);
+    }
 }

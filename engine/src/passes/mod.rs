@@ -1,5 +1,6 @@
 //! `engine::passes`: one file per pass, each with the shader folder of the same name.
 
+pub mod blocker_bvh;
 pub mod gbuffer;
 pub mod layout;
 pub mod shade;

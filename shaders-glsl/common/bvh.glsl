@@ -1,0 +1,99 @@
+// Binary sphere BVH in device memory: the node layout (twin of engine_blockers::bvh::GpuBvhNode, std430,
+// 32 bytes) and bounded-stack traversal helpers shared by every technique. f64 twin:
+// engine_blockers::traverse (same stack discipline, same overflow rule).
+//
+// Node numbering (Karras 2012): for n leaves, internal nodes are 0 .. n-2 (root 0) and leaves n-1 .. 2n-2;
+// with one sphere the root is that leaf. A node's sphere bounds its children's.
+//
+// This file declares no buffer: a shader includes it, declares its node array with this struct, e.g.
+//     layout(std430, binding = N) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+// and then either writes its own loop with the cursor helpers or includes bvh_cut.glsl.
+#ifndef BVH_GLSL
+#define BVH_GLSL
+
+#include "spheres.glsl"
+
+const uint BVH_INVALID = 0xffffffffu;
+
+struct BvhNode {
+    vec3 center;
+    float radius;
+    uint left;   // BVH_INVALID for a leaf
+    uint right;  // BVH_INVALID for a leaf
+    uint parent; // BVH_INVALID for the root
+    uint sphere; // leaf: index into the sphere buffer; internal: BVH_INVALID
+};
+
+// Maximum pending nodes. An LBVH over 30-bit Morton codes with index tie-breaks has depth <= 63 (the
+// split prefix length strictly grows along every root-to-leaf path and is at most 62), and a traversal
+// that pops one node and pushes two holds at most depth + 1 = 64 entries: BVH_STACK_SIZE 64 never
+// overflows on the LBVH built by the blocker_bvh pass. A shader may define a smaller stack before
+// including this file (fewer registers); then see bvh_cursor_push_children for what overflow does.
+#ifndef BVH_STACK_SIZE
+#define BVH_STACK_SIZE 64
+#endif
+
+struct BvhCursor {
+    uint stack[BVH_STACK_SIZE];
+    uint size;
+    // Set when a push did not fit (the node was then handed back to the caller to take whole).
+    bool overflowed;
+};
+
+// A cursor at the root, or an empty one when there are no spheres.
+BvhCursor bvh_cursor_begin(uint sphere_count) {
+    BvhCursor c;
+    c.size = sphere_count > 0u ? 1u : 0u;
+    c.stack[0] = 0u;
+    c.overflowed = false;
+    return c;
+}
+
+// Pops the next node to visit into `node`; false when the traversal is finished.
+bool bvh_cursor_next(inout BvhCursor c, out uint node) {
+    if (c.size == 0u) {
+        node = BVH_INVALID;
+        return false;
+    }
+    c.size -= 1u;
+    node = c.stack[c.size];
+    return true;
+}
+
+// Pushes both children (the left one is visited first). Returns false, pushes nothing and sets
+// c.overflowed when there is no room for both: the caller must then take the node whole (use its
+// bounding sphere as if it were a leaf). That is conservative for blocking, since the node's sphere
+// contains every sphere below it: overflow can only add occlusion, never lose it.
+bool bvh_cursor_push_children(inout BvhCursor c, uint left, uint right) {
+    if (c.size + 2u > uint(BVH_STACK_SIZE)) {
+        c.overflowed = true;
+        return false;
+    }
+    c.stack[c.size] = right;
+    c.stack[c.size + 1u] = left;
+    c.size += 2u;
+    return true;
+}
+
+bool bvh_is_leaf(BvhNode n) {
+    return n.left == BVH_INVALID;
+}
+
+vec4 bvh_sphere(BvhNode n) {
+    return vec4(n.center, n.radius);
+}
+
+// "Subtends less than theta_max" cut test (SHEXP Eq. 36) with sin(theta_max) precomputed, from every
+// point of the receiver sphere (radius 0 for a point). A node passing it may be taken whole.
+// Twin: engine_blockers::geom::subtends_less_than.
+bool bvh_subtends_less_than(vec4 receiver, vec4 s, float sin_theta_max) {
+    return s.w < sin_theta_max * (distance(receiver.xyz, s.xyz) - receiver.w);
+}
+
+// Cone-sphere culling (ISG Sec. 5, Fig. 5): whether sphere s can block any direction of the cone.
+// Exact (see spheres.glsl); a node that fails culls its whole subtree.
+bool bvh_cone_hits(vec3 apex, vec3 axis, float half_angle, vec4 s) {
+    return cone_intersects_sphere(apex, axis, half_angle, s);
+}
+
+#endif // BVH_GLSL
