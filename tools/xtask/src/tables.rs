@@ -6,7 +6,8 @@
 use anyhow::Result;
 
 pub fn run(args: &[String]) -> Result<()> {
-    let out = crate::root().join("assets/tables");
+    let root = crate::root();
+    let out = root.canonicalize().unwrap_or(root).join("assets/tables");
     let mut c = crate::cargo();
     c.args(["run", "--release", "--quiet", "-p", "engine-math", "--bin", "tables", "--", "--out"]).arg(&out).args(args);
     crate::run(c)
