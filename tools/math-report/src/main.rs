@@ -320,7 +320,12 @@ fn lobe_section(dir: &Path, per_decade: usize, lookups: usize) -> Result<String,
     );
     // The fit error at the nodes, as lobes::measure_product_fit_on_grid (α = π excluded: the product is 0 there).
     let pairs: Vec<(f64, f64)> = es.iter().flat_map(|&a| es.iter().map(move |&b| (a, b))).collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
     let errs: Vec<ProductError> = par_map(&pairs, |&(e1, e2)| {
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if k.is_multiple_of(pairs.len().div_ceil(10)) {
+            println!("    {:>3.0} % ({:.0} s)", 100.0 * k as f64 / pairs.len() as f64, t0.elapsed().as_secs_f64());
+        }
         (0..alpha_samples - 1)
             .map(|j| {
                 let alpha = PI * j as f64 / (alpha_samples - 1) as f64;
@@ -365,7 +370,7 @@ fn lobe_section(dir: &Path, per_decade: usize, lookups: usize) -> Result<String,
             .x_axis("α: angle between the lobe axes [rad]", Scale::Linear)
             .x_range(0.0, PI)
             .y_axis(format!("{title} absolute integral error"), Scale::Log10)
-            .y_range(1e-8, 100.0)
+            .y_range(1e-8, 1e4)
             .legend(Legend::TopRight);
         for (label, lo, hi) in classes {
             p = p.series(Series::new(label, by_alpha(lo, hi, stat), Style::LineMarkers));
