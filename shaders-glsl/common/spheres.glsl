@@ -57,4 +57,20 @@ vec4 merge_spheres(vec4 a, vec4 b) {
     return vec4(c, r);
 }
 
+// SHEXP §6.2 self-shadowing rules: the blocker that sphere s becomes for a receiver at p with unit
+// normal n (tangent plane T_p). Returns false when s is eliminated. Twin: geom::blocker_for_receiver.
+bool blocker_for_receiver(vec3 p, vec3 n, vec4 s, out vec4 blocker) {
+    float h = dot(s.xyz - p, n);
+    blocker = s;
+    if (distance(s.xyz, p) <= s.w) {
+        blocker = vec4(s.xyz, min(h, s.w));
+        return h > 0.0;
+    }
+    if (h <= -s.w) return false;
+    if (h >= s.w) return true;
+    float t = h + s.w;
+    blocker = vec4(s.xyz + n * (s.w - 0.5 * t), 0.5 * t);
+    return true;
+}
+
 #endif // SPHERES_GLSL

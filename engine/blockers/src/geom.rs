@@ -362,3 +362,53 @@ mod tests {
         assert!((x - target).length() < 1e-6 && (v - 1.0).abs() < 1e-10, "{x:?} {v}");
     }
 }
+
+/// The self-shadowing replacement rules of SHEXP §6.2 (Fig. 5) for a blocker sphere `s` seen from a
+/// receiver at `p` with unit outward normal `n` (tangent plane T_p):
+/// - `p` inside `s`: eliminated if the centre is behind T_p (or on it), else its radius is reduced
+///   until it is tangent to T_p (the same centre);
+/// - `p` outside `s`: eliminated if entirely behind T_p; if it straddles T_p, replaced by the sphere
+///   whose diameter joins the point of `s` farthest in front of T_p (q0) and its projection onto T_p
+///   (q1); unaltered if entirely in front.
+///
+/// The paper's gradual radius scale α (for continuity as `p` leaves `s`) is not applied.
+/// Twin: `blocker_for_receiver` in shaders-glsl/common/spheres.glsl.
+pub fn blocker_for_receiver(p: DVec3, n: DVec3, s: &Sphere) -> Option<Sphere> {
+    let h = (s.center - p).dot(n);
+    if s.center.distance(p) <= s.radius {
+        return (h > 0.0).then(|| Sphere::new(s.center, h.min(s.radius)));
+    }
+    if h <= -s.radius {
+        return None;
+    }
+    if h >= s.radius {
+        return Some(*s);
+    }
+    let t = h + s.radius; // height of q0 above T_p, in (0, 2r)
+    Some(Sphere::new(s.center + n * (s.radius - 0.5 * t), 0.5 * t))
+}
+
+#[cfg(test)]
+mod receiver_rule_tests {
+    use super::*;
+
+    #[test]
+    fn shexp_self_shadow_rules() {
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        // Entirely in front: unaltered.
+        let s = Sphere::new(DVec3::new(0.0, 3.0, 0.0), 1.0);
+        assert_eq!(blocker_for_receiver(p, n, &s), Some(s));
+        // Entirely behind: eliminated.
+        assert_eq!(blocker_for_receiver(p, n, &Sphere::new(DVec3::new(5.0, -2.0, 0.0), 1.0)), None);
+        // Receiver inside, centre behind: eliminated; centre in front: tangent to the plane.
+        assert_eq!(blocker_for_receiver(p, n, &Sphere::new(DVec3::new(0.0, -0.5, 0.0), 1.0)), None);
+        let t = blocker_for_receiver(p, n, &Sphere::new(DVec3::new(0.2, 0.5, 0.0), 1.0)).unwrap();
+        assert_eq!(t, Sphere::new(DVec3::new(0.2, 0.5, 0.0), 0.5));
+        // Outside and straddling: the sphere on the diameter q0-q1, tangent to T_p, in front of it.
+        let s = Sphere::new(DVec3::new(3.0, 0.5, 0.0), 1.0);
+        let r = blocker_for_receiver(p, n, &s).unwrap();
+        assert!((r.radius - 0.75).abs() < 1e-12 && (r.center - DVec3::new(3.0, 0.75, 0.0)).length() < 1e-12);
+        assert!((r.center.y - r.radius).abs() < 1e-12, "tangent to T_p");
+        assert!((r.center.y + r.radius - 1.5).abs() < 1e-12, "reaches q0");
+    }
+}

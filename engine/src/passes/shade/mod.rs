@@ -2,6 +2,7 @@
 //! inputs (G-buffer or world vertices, materials, environment, later the blocker buffers) and
 //! writes one radiance target, per pixel or per vertex, from the same GLSL `shade_point`.
 
+pub mod isg;
 pub mod none;
 pub mod reference;
 
@@ -37,13 +38,41 @@ pub trait Technique {
 }
 
 /// Names accepted by [`create_technique`].
-pub const TECHNIQUES: &[&str] = &["none", "reference"];
+pub const TECHNIQUES: &[&str] = &["none", "isg", "reference"];
 
-/// A technique by name (`none`; `isg`, `lobes`, `shexp` and `reference` plug in here).
-pub fn create_technique(gpu: &Gpu, name: &str) -> Result<Box<dyn Technique>> {
+/// Split a technique spec `name[:key=value,key=value...]` into its name and options.
+pub fn parse_technique_spec(spec: &str) -> Result<(&str, Vec<(String, String)>)> {
+    let (name, rest) = spec.split_once(':').unwrap_or((spec, ""));
+    let mut options = Vec::new();
+    for part in rest.split(',').filter(|p| !p.trim().is_empty()) {
+        let (k, v) = part.split_once('=').ok_or_else(|| {
+            crate::gpu::GpuError::Other(format!("technique '{spec}': option '{part}' is not key=value"))
+        })?;
+        options.push((k.trim().to_string(), v.trim().to_string()));
+    }
+    Ok((name.trim(), options))
+}
+
+/// A technique from its spec, `name[:key=value,...]`: `none`, `isg` (options in
+/// [`isg::IsgOptions`]) or `reference`; `lobes` and `shexp` plug in here.
+pub fn create_technique(gpu: &Gpu, spec: &str) -> Result<Box<dyn Technique>> {
+    let (name, options) = parse_technique_spec(spec)?;
+    let no_options = || -> Result<()> {
+        match options.first() {
+            Some((k, _)) => Err(crate::gpu::GpuError::Other(format!("technique '{name}' has no option '{k}'"))),
+            None => Ok(()),
+        }
+    };
     match name {
-        "none" => Ok(Box::new(none::NoShadows::new(gpu)?)),
-        "reference" => Ok(Box::new(reference::Reference::new(gpu)?)),
+        "none" => {
+            no_options()?;
+            Ok(Box::new(none::NoShadows::new(gpu)?))
+        }
+        "isg" => Ok(Box::new(isg::Isg::new(gpu, isg::IsgOptions::parse(&options)?)?)),
+        "reference" => {
+            no_options()?;
+            Ok(Box::new(reference::Reference::new(gpu)?))
+        }
         other => Err(crate::gpu::GpuError::Other(format!(
             "unknown technique '{other}' (available: {})",
             TECHNIQUES.join(", ")

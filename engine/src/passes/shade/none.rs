@@ -22,6 +22,20 @@ impl NoShadows {
     }
 }
 
+/// The SG-prefiltered environment maps Γ_L (ISG Eq. 10) at λ = 4^(k−1), k = 0..8, stacked
+/// vertically in one RGBA32F texture (read by `prefiltered_lookup` in shaders-glsl/shade/prefiltered.glsl).
+pub(crate) fn prefiltered_atlas(gpu: &Gpu, name: &str, env: &engine_math::envmap::LatLongMap) -> Result<Image> {
+    let mut stacked = Vec::with_capacity(PREFILTER_SIZE.0 * PREFILTER_SIZE.1 * PREFILTER_LEVELS);
+    for level in 0..PREFILTER_LEVELS {
+        stacked.extend(sg_prefiltered_map(env, level, PREFILTER_SIZE.0, PREFILTER_SIZE.1).texels);
+    }
+    gpu.upload_image(
+        name,
+        ImageDesc::texture(PREFILTER_SIZE.0 as u32, (PREFILTER_SIZE.1 * PREFILTER_LEVELS) as u32, ImageFormat::Rgba32f),
+        &rgba32f_bytes(&stacked),
+    )
+}
+
 fn rgba32f_bytes(texels: &[[f32; 3]]) -> Vec<u8> {
     let v: Vec<f32> = texels.iter().flat_map(|t| [t[0], t[1], t[2], 1.0]).collect();
     bytemuck::cast_slice(&v).to_vec()
@@ -39,20 +53,12 @@ impl Technique for NoShadows {
         }
         let env = &scene.environment_cpu;
         let irr = irradiance_map(env, IRRADIANCE_SIZE.0, IRRADIANCE_SIZE.1);
-        let mut stacked = Vec::with_capacity(PREFILTER_SIZE.0 * PREFILTER_SIZE.1 * PREFILTER_LEVELS);
-        for level in 0..PREFILTER_LEVELS {
-            stacked.extend(sg_prefiltered_map(env, level, PREFILTER_SIZE.0, PREFILTER_SIZE.1).texels);
-        }
         let irr_img = gpu.upload_image(
             "none-irradiance",
             ImageDesc::texture(IRRADIANCE_SIZE.0 as u32, IRRADIANCE_SIZE.1 as u32, ImageFormat::Rgba32f),
             &rgba32f_bytes(&irr.texels),
         )?;
-        let pre = gpu.upload_image(
-            "none-prefiltered",
-            ImageDesc::texture(PREFILTER_SIZE.0 as u32, (PREFILTER_SIZE.1 * PREFILTER_LEVELS) as u32, ImageFormat::Rgba32f),
-            &rgba32f_bytes(&stacked),
-        );
+        let pre = prefiltered_atlas(gpu, "none-prefiltered", env);
         match pre {
             Ok(pre) => {
                 self.maps = Some((irr_img, pre));

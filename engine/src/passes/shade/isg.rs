@@ -1,0 +1,538 @@
+//! Technique `isg` (shaders-glsl/shade/isg): soft shadows from blocker spheres under all-frequency
+//! environment lighting with integral spherical Gaussians (Iwasaki et al. 2012).
+//!
+//! - Diffuse (paper §3–4, Eq. 5–6): the environment as K spherical Gaussians (a greedy least-squares
+//!   fit, engine-math `fit_envmap_sgs`), the clamped cosine as one SG; each product lobe is integrated
+//!   against the visibility as its unoccluded integral minus the ISG of its occluded patches.
+//! - Specular (Eq. 7–10): normalized Blinn-Phong as one warped SG, lighting from the SG-prefiltered
+//!   environment maps (Γ_L, the same maps as technique `none`), times the visibility ratio of Eq. 9
+//!   computed on the product of the BRDF lobe and the cosine lobe.
+//! - Occluded patches (§4.1, §5): a P × P grid within the limiting angle Γ (ε), the sphere BVH
+//!   traversed with cone culling and a projected-size threshold; the SHEXP §6.2 self-shadowing rules
+//!   for spheres near the receiver. See shaders-glsl/common/isg_visibility.glsl.
+//!
+//! Options (`--technique isg:K=10,patches=16,eps=0.01,threshold=1,evaluator=table`):
+//! `K` environment lobes (1..32), `patches` per side P (P² patches, 1..32), `eps` the limiting-angle
+//! threshold ε, `threshold` the BVH node size (in patch widths) below which a node is taken whole,
+//! `evaluator` `table` (ours, engine-math IsgLut) or `paper` (the paper's sigmoid fit).
+//!
+//! Not modelled: thin shells (triangles rasterized into patches, §5) and anisotropic BRDF lobes.
+//! [`cpu`] is the f64 twin of the whole per-point integral.
+
+use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
+use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Image, Recorder, Result};
+use crate::renderer::GpuScene;
+use crate::tables::MathTables;
+use engine_math::prefilter::resample;
+use engine_math::sg::{fit_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
+use engine_math::table_gen::MathTable;
+
+/// Which ISG evaluator computes Ŝ at patch corners.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluator {
+    /// Our table (engine-math `IsgLut`): max error ≤ 0.0087 for λ ∈ [1e-2, 1e5].
+    Table,
+    /// The paper's product of two sigmoids with the appendix quartics.
+    Paper,
+}
+
+/// The technique's parameters (see the module docs for their option names).
+#[derive(Clone, Debug, PartialEq)]
+pub struct IsgOptions {
+    pub k: usize,
+    pub side: usize,
+    pub epsilon: f64,
+    pub node_threshold: f64,
+    pub evaluator: Evaluator,
+}
+
+impl Default for IsgOptions {
+    fn default() -> Self {
+        Self { k: 10, side: 16, epsilon: 0.01, node_threshold: 1.0, evaluator: Evaluator::Table }
+    }
+}
+
+impl IsgOptions {
+    /// Parse `key=value` pairs; unknown keys and bad values are errors naming the option.
+    pub fn parse(pairs: &[(String, String)]) -> Result<Self> {
+        let mut o = Self::default();
+        let bad = |k: &str, v: &str, why: &str| GpuError::Other(format!("isg option {k}={v}: {why}"));
+        for (k, v) in pairs {
+            match k.as_str() {
+                "K" | "k" => {
+                    o.k = v.parse().map_err(|_| bad(k, v, "not an integer"))?;
+                    if !(1..=32).contains(&o.k) {
+                        return Err(bad(k, v, "K must be in 1..=32"));
+                    }
+                }
+                "patches" => {
+                    o.side = v.parse().map_err(|_| bad(k, v, "not an integer"))?;
+                    if !(1..=32).contains(&o.side) {
+                        return Err(bad(k, v, "patches per side must be in 1..=32 (1 to 1024 patches)"));
+                    }
+                }
+                "eps" | "epsilon" => {
+                    o.epsilon = v.parse().map_err(|_| bad(k, v, "not a number"))?;
+                    if !(o.epsilon > 0.0 && o.epsilon < 1.0) {
+                        return Err(bad(k, v, "ε must be in (0, 1)"));
+                    }
+                }
+                "threshold" => {
+                    o.node_threshold = v.parse().map_err(|_| bad(k, v, "not a number"))?;
+                    if !(o.node_threshold >= 0.0 && o.node_threshold.is_finite()) {
+                        return Err(bad(k, v, "must be a finite number ≥ 0"));
+                    }
+                }
+                "evaluator" => {
+                    o.evaluator = match v.as_str() {
+                        "table" => Evaluator::Table,
+                        "paper" => Evaluator::Paper,
+                        _ => return Err(bad(k, v, "use table or paper")),
+                    }
+                }
+                _ => {
+                    return Err(GpuError::Other(format!(
+                        "unknown isg option '{k}' (options: K, patches, eps, threshold, evaluator)"
+                    )))
+                }
+            }
+        }
+        Ok(o)
+    }
+}
+
+/// Resolution at which the environment is fitted with SGs (fit cost grows with texels × K).
+const FIT_SIZE: (usize, usize) = (128, 64);
+
+/// `IsgParams` in shaders-glsl/shade/isg/shade.glsl (std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuIsgParams {
+    /// K, patches per side, evaluator (0 table, 1 paper), sphere count.
+    pub ints: [u32; 4],
+    /// ln ε, node threshold, cosine-SG λ, cosine-SG μ.
+    pub floats: [f32; 4],
+}
+
+/// One environment lobe: `(axis, λ)` then `(μ rgb, 0)` (std430 vec4 pairs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuSgLobe {
+    pub axis_lambda: [f32; 4],
+    pub mu: [f32; 4],
+}
+
+struct Prepared {
+    prefiltered: Image,
+    env_sgs: Buffer,
+    params: Buffer,
+    tables: MathTables,
+}
+
+pub struct Isg {
+    pipelines: TargetPipelines,
+    pub options: IsgOptions,
+    prepared: Option<Prepared>,
+    /// The fitted environment lobes (for reports and the CPU twin).
+    pub lobes: Vec<SgRgb>,
+    /// Relative L2 error of the K-lobe environment fit.
+    pub fit_error: f64,
+}
+
+impl Isg {
+    pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
+        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, options, prepared: None, lobes: Vec::new(), fit_error: 0.0 })
+    }
+
+    fn release(&mut self, gpu: &Gpu) {
+        if let Some(p) = self.prepared.take() {
+            gpu.destroy_image(p.prefiltered);
+            gpu.destroy_buffer(p.env_sgs);
+            gpu.destroy_buffer(p.params);
+            p.tables.destroy(gpu);
+        }
+    }
+}
+
+impl Technique for Isg {
+    fn name(&self) -> &'static str {
+        "isg"
+    }
+
+    fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
+        self.release(gpu);
+        let small = resample(&scene.environment_cpu, FIT_SIZE.0, FIT_SIZE.1);
+        let (fits, errors) = fit_envmap_sgs(&small, self.options.k);
+        self.lobes = fits.last().cloned().unwrap_or_default();
+        self.fit_error = errors.last().copied().unwrap_or(1.0);
+        let lobes: Vec<GpuSgLobe> = self
+            .lobes
+            .iter()
+            .map(|l| GpuSgLobe {
+                axis_lambda: [l.axis[0] as f32, l.axis[1] as f32, l.axis[2] as f32, l.lambda as f32],
+                mu: [l.mu[0] as f32, l.mu[1] as f32, l.mu[2] as f32, 0.0],
+            })
+            .collect();
+        let o = &self.options;
+        let params = GpuIsgParams {
+            ints: [lobes.len() as u32, o.side as u32, (o.evaluator == Evaluator::Paper) as u32, scene.sphere_count],
+            floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
+        };
+        // Build every piece; on failure free what was made.
+        let prefiltered = super::none::prefiltered_atlas(gpu, "isg-prefiltered", &scene.environment_cpu)?;
+        let mut made: Vec<Buffer> = Vec::new();
+        let result = (|| -> Result<(Buffer, Buffer, MathTables)> {
+            let sgs = gpu.upload_buffer("isg-env-sgs", BufferDesc::gpu_only(0), bytemuck::cast_slice(&lobes_or_one(&lobes)))?;
+            made.push(sgs);
+            let p = gpu.upload_buffer("isg-params", BufferDesc::gpu_only(0), bytemuck::bytes_of(&params))?;
+            made.push(p);
+            let tables = MathTables::load(gpu, &crate::tables::default_dir(), &[MathTable::IsgLut])
+                .map_err(|e| GpuError::Other(e.to_string()))?;
+            let p = made.pop().expect("pushed");
+            let s = made.pop().expect("pushed");
+            Ok((s, p, tables))
+        })();
+        match result {
+            Ok((env_sgs, params, tables)) => {
+                self.prepared = Some(Prepared { prefiltered, env_sgs, params, tables });
+                Ok(())
+            }
+            Err(e) => {
+                gpu.destroy_image(prefiltered);
+                for b in made {
+                    gpu.destroy_buffer(b);
+                }
+                Err(e)
+            }
+        }
+    }
+
+    fn record(&self, rec: &mut Recorder, inputs: &ShadeInputs, target: ShadeTarget) -> Result<()> {
+        let Some(p) = &self.prepared else {
+            return Err(GpuError::Other("technique 'isg' recorded before prepare()".into()));
+        };
+        let lut = p.tables.get(MathTable::IsgLut).ok_or_else(|| GpuError::Other("isg: table not loaded".into()))?;
+        self.pipelines.record(
+            rec,
+            "isg",
+            inputs,
+            target,
+            &[
+                Binding::sampled("prefiltered_env", &p.prefiltered),
+                Binding::buffer("EnvSgs", &p.env_sgs),
+                Binding::buffer("IsgTable", &lut.buffer),
+                Binding::buffer("BvhNodes", &inputs.scene.bvh_nodes),
+                Binding::buffer("IsgParams", &p.params),
+            ],
+        )
+    }
+
+    fn destroy(mut self: Box<Self>, gpu: &Gpu) {
+        self.release(gpu);
+        self.pipelines.destroy(gpu);
+    }
+}
+
+/// A storage buffer may not be empty: K ≥ 1 always, but keep one zero lobe if a fit returned none.
+fn lobes_or_one(lobes: &[GpuSgLobe]) -> Vec<GpuSgLobe> {
+    if lobes.is_empty() {
+        vec![GpuSgLobe::default()]
+    } else {
+        lobes.to_vec()
+    }
+}
+
+/// f64 twin of the per-point ISG integral (shaders-glsl/common/isg_visibility.glsl and
+/// shaders-glsl/shade/isg/shade.glsl). Blockers are a flat list of spheres: this equals the GPU
+/// traversal with `node_threshold = 0` (every node opened down to its leaves; leaves are culled by
+/// the same exact cone test).
+pub mod cpu {
+    use super::{Evaluator, IsgOptions};
+    use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
+    use engine_math::isg::{isg_normalization, isg_paper, IsgLut};
+    use engine_math::sg::{sg_product_log, Sg, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
+    use glam::DVec3;
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    /// The patch grid of one lobe (see isg_visibility.glsl).
+    pub struct Grid {
+        pub x: DVec3,
+        pub y: DVec3,
+        pub z: DVec3,
+        pub lo: f64,
+        pub delta: f64,
+        pub side: usize,
+        pub cone: f64,
+    }
+
+    pub fn limiting_angle(lambda: f64, epsilon: f64) -> f64 {
+        let c = 1.0 + epsilon.ln() / lambda.max(1e-30);
+        if c <= 0.0 {
+            FRAC_PI_2
+        } else {
+            c.acos()
+        }
+    }
+
+    /// Duff et al. 2017 orthonormal basis (the same branch as the shader).
+    pub fn basis(z: DVec3) -> (DVec3, DVec3) {
+        let s = if z.z >= 0.0 { 1.0 } else { -1.0 };
+        let a = -1.0 / (s + z.z);
+        let b = z.x * z.y * a;
+        (DVec3::new(1.0 + s * z.x * z.x * a, s * b, -s * z.x), DVec3::new(b, s + z.y * z.y * a, -z.y))
+    }
+
+    pub fn grid(axis: DVec3, lambda: f64, o: &IsgOptions) -> Grid {
+        let (x, y) = basis(axis);
+        let gamma = limiting_angle(lambda, o.epsilon);
+        let side = o.side.clamp(1, 32);
+        let c = gamma.cos();
+        Grid {
+            x,
+            y,
+            z: axis,
+            lo: FRAC_PI_2 - gamma,
+            delta: 2.0 * gamma / side as f64,
+            side,
+            cone: (c * c).clamp(0.0, 1.0).acos(),
+        }
+    }
+
+    /// Marks (row-major `mask[i][j]`) the patches whose centre lies within `psi` of unit `u`.
+    pub fn mark_cap(mask: &mut [Vec<bool>], g: &Grid, u: DVec3, psi: f64) {
+        if psi >= PI {
+            mask.iter_mut().for_each(|r| r.iter_mut().for_each(|b| *b = true));
+            return;
+        }
+        let (ux, uy, uz) = (u.dot(g.x), u.dot(g.y), u.dot(g.z));
+        let rho = (ux * ux + uz * uz).sqrt();
+        let theta_c = rho.atan2(uy);
+        let phi_c = if rho > 0.0 { uz.atan2(ux) } else { 0.0 };
+        let last = (g.side - 1) as f64;
+        let i_lo = ((theta_c - psi - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
+        let i_hi = ((theta_c + psi - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
+        for i in i_lo..=i_hi {
+            let th = g.lo + (i as f64 + 0.5) * g.delta;
+            let denom = th.sin() * rho;
+            let rhs = psi.cos() - th.cos() * uy;
+            let row = &mut mask[i as usize];
+            if denom < 1e-7 {
+                if rhs <= 0.0 {
+                    row.iter_mut().for_each(|b| *b = true);
+                }
+                continue;
+            }
+            let q = rhs / denom;
+            if q <= -1.0 {
+                row.iter_mut().for_each(|b| *b = true);
+            } else if q <= 1.0 {
+                let w = q.acos();
+                for k in -1..=1 {
+                    let c = phi_c + 2.0 * PI * k as f64;
+                    let j_lo = ((c - w - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
+                    let j_hi = ((c + w - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
+                    for j in j_lo..=j_hi {
+                        row[j as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Ŝ at a corner with the chosen evaluator.
+    fn corner(theta: f64, phi: f64, lambda: f64, e: Evaluator, lut: &IsgLut) -> f64 {
+        match e {
+            Evaluator::Table => lut.eval(theta, phi, lambda),
+            Evaluator::Paper => isg_paper(theta, phi, lambda),
+        }
+    }
+
+    /// Sum of Ŝ over the marked patches (four corners per run of a row).
+    pub fn occluded_sum(mask: &[Vec<bool>], g: &Grid, lambda: f64, e: Evaluator, lut: &IsgLut) -> f64 {
+        let mut sum = 0.0;
+        for (i, row) in mask.iter().enumerate() {
+            let t0 = g.lo + i as f64 * g.delta;
+            let t1 = t0 + g.delta;
+            let mut j = 0;
+            while j < g.side {
+                if !row[j] {
+                    j += 1;
+                    continue;
+                }
+                let j0 = j;
+                while j < g.side && row[j] {
+                    j += 1;
+                }
+                let (p0, p1) = (g.lo + j0 as f64 * g.delta, g.lo + j as f64 * g.delta);
+                sum += corner(t1, p1, lambda, e, lut) - corner(t0, p1, lambda, e, lut) - corner(t1, p0, lambda, e, lut)
+                    + corner(t0, p0, lambda, e, lut);
+            }
+        }
+        sum.max(0.0)
+    }
+
+    /// Occluded part of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units.
+    pub fn occlusion(p: DVec3, n: DVec3, axis: DVec3, lambda: f64, o: &IsgOptions, spheres: &[Sphere], lut: &IsgLut) -> f64 {
+        if spheres.is_empty() {
+            return 0.0;
+        }
+        let g = grid(axis, lambda, o);
+        let cone = Cone::new(p, axis, g.cone);
+        let mut mask = vec![vec![false; g.side]; g.side];
+        let mut marked = false;
+        for s in spheres {
+            if !cone_intersects_sphere(&cone, s) {
+                continue;
+            }
+            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
+            if b.radius <= 0.0 {
+                continue;
+            }
+            let d = b.center - p;
+            let dist = d.length();
+            if dist <= 0.0 {
+                continue;
+            }
+            mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
+            marked = true;
+        }
+        if marked {
+            occluded_sum(&mask, &g, lambda, o.evaluator, lut)
+        } else {
+            0.0
+        }
+    }
+
+    /// Visible integral of the SG (axis, λ) with amplitude exp(log_mu): μ (F(λ) − H(λ) · occluded).
+    fn visible_integral(log_mu: f64, lambda: f64, occluded: f64) -> f64 {
+        let full = 2.0 * PI * sphere_unit(lambda);
+        (log_mu.exp() * (full - isg_normalization(lambda) * occluded)).max(0.0)
+    }
+
+    /// (1 − e^{−2λ})/λ.
+    fn sphere_unit(lambda: f64) -> f64 {
+        if lambda < 1e-8 {
+            2.0
+        } else {
+            -(-2.0 * lambda).exp_m1() / lambda
+        }
+    }
+
+    /// A shading point: world position, unit normal, unit view direction, material.
+    pub struct Point {
+        pub position: DVec3,
+        pub normal: DVec3,
+        pub view: DVec3,
+        /// Diffuse albedo ρ (the BRDF's diffuse term is ρ/π).
+        pub diffuse: [f64; 3],
+        /// Specular k_s and Blinn-Phong exponent s (normalized lobe k_s (s+8)/(8π) (n·h)^s).
+        pub specular: [f64; 3],
+        pub shininess: f64,
+    }
+
+    /// Outgoing radiance (diffuse part and the visibility ratio of the specular lobe) of the
+    /// technique at one point, with the environment as `lobes`. The specular term also needs the
+    /// prefiltered environment, so it is returned as the ratio that multiplies it.
+    pub fn shade_diffuse_and_ratio(
+        pt: &Point,
+        lobes: &[SgRgb],
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        lut: &IsgLut,
+    ) -> ([f64; 3], f64) {
+        let n = pt.normal;
+        let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
+        let mut e = [0.0; 3];
+        for l in lobes {
+            let prod = sg_product_log(&Sg::new(l.axis, l.lambda, 1.0), &cosine);
+            let axis = DVec3::from_array(prod.axis);
+            let occ = occlusion(pt.position, n, axis, prod.lambda, o, spheres, lut);
+            let v = visible_integral(prod.log_mu, prod.lambda, occ);
+            for c in 0..3 {
+                e[c] += l.mu[c] * v;
+            }
+        }
+        let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
+        let ratio = if pt.specular.iter().all(|&k| k == 0.0) {
+            1.0
+        } else {
+            let ndv = n.dot(pt.view).abs().max(1e-6);
+            let r = (2.0 * n.dot(pt.view) * n - pt.view).normalize();
+            let lambda = pt.shininess / (4.0 * ndv);
+            let prod = sg_product_log(&Sg::new([r.x, r.y, r.z], lambda, 1.0), &cosine);
+            let occ = occlusion(pt.position, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+            let full = 2.0 * PI * sphere_unit(prod.lambda);
+            ((full - isg_normalization(prod.lambda) * occ) / full).clamp(0.0, 1.0)
+        };
+        (diffuse, ratio)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cpu::*;
+    use super::*;
+    use engine_blockers::geom::Sphere;
+    use engine_math::isg::IsgLut;
+    use glam::DVec3;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn layouts() {
+        assert_eq!(std::mem::size_of::<GpuIsgParams>(), 32);
+        assert_eq!(std::mem::size_of::<GpuSgLobe>(), 32);
+    }
+
+    #[test]
+    fn options_parse_and_reject() {
+        let kv = |s: &str| -> Vec<(String, String)> {
+            s.split(',').map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).unwrap()).collect()
+        };
+        let o = IsgOptions::parse(&kv("K=4,patches=20,eps=0.05,threshold=0.5,evaluator=paper")).unwrap();
+        assert_eq!((o.k, o.side, o.evaluator), (4, 20, Evaluator::Paper));
+        for bad in ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x"] {
+            assert!(IsgOptions::parse(&kv(bad)).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn limiting_angle_bounds_the_lobe() {
+        for lambda in [5.0, 50.0, 1e3, 1e5] {
+            let g = limiting_angle(lambda, 0.01);
+            assert!(((lambda * (g.cos() - 1.0)).exp() - 0.01).abs() < 1e-9);
+        }
+        assert_eq!(limiting_angle(1.0, 0.01), std::f64::consts::FRAC_PI_2);
+    }
+
+    /// The patch grid's marking of one cap matches its solid angle (ISG of a cap against quadrature).
+    #[test]
+    fn one_sphere_occlusion_matches_quadrature() {
+        let lut = IsgLut::generate_default();
+        let o = IsgOptions { side: 32, ..IsgOptions::default() };
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        for (lambda, axis, s) in [
+            (20.0, DVec3::Y, Sphere::new(DVec3::new(0.0, 3.0, 0.0), 1.0)),
+            (5.0, DVec3::new(0.3, 1.0, 0.1).normalize(), Sphere::new(DVec3::new(1.0, 2.0, 0.5), 0.8)),
+            (200.0, DVec3::new(0.0, 1.0, 0.2).normalize(), Sphere::new(DVec3::new(0.0, 4.0, 0.9), 0.4)),
+        ] {
+            let occ = occlusion(p, n, axis, lambda, &o, &[s], &lut) * engine_math::isg::isg_normalization(lambda);
+            // Quadrature of the SG over the cap of directions hitting s.
+            let c = (s.center - p).normalize();
+            let cos_psi = (1.0 - (s.radius / s.center.length()).powi(2)).sqrt();
+            let (bx, by) = basis(c);
+            let (nt, nph) = (400, 400);
+            let psi = cos_psi.acos();
+            let mut exact = 0.0;
+            for i in 0..nt {
+                let t = (i as f64 + 0.5) / nt as f64 * psi;
+                for j in 0..nph {
+                    let ph = (j as f64 + 0.5) / nph as f64 * 2.0 * PI;
+                    let d = c * t.cos() + (bx * ph.cos() + by * ph.sin()) * t.sin();
+                    exact += (lambda * (d.dot(axis) - 1.0)).exp() * t.sin() * (psi / nt as f64) * (2.0 * PI / nph as f64);
+                }
+            }
+            let rel = (occ - exact).abs() / exact;
+            assert!(rel < 0.05, "λ {lambda}: grid {occ} vs quadrature {exact} ({rel})");
+        }
+    }
+}

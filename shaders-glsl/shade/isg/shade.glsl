@@ -1,0 +1,76 @@
+// Technique `isg` (engine passes::shade::isg): soft shadows from blocker spheres with integral
+// spherical Gaussians (Iwasaki et al. 2012).
+// Diffuse (Eq. 5–6): ρ/π Σ_k μ_k ∫ G_k G_cos V, each product lobe's visible integral by
+// isg_occlusion (common/isg_visibility.glsl). Specular (Eq. 7–10): the unshadowed prefiltered
+// Blinn-Phong term (as in `none`) times the visibility ratio of Eq. 9 on the product of the BRDF lobe
+// and the cosine lobe.
+#include "../common.glsl"
+#include "../prefiltered.glsl"
+#include "../../common/sg.glsl"
+#include "../../common/bvh.glsl"
+
+layout(binding = 8) uniform sampler2D prefiltered_env;
+struct EnvLobe {
+    vec4 axis_lambda;
+    vec4 mu;
+};
+layout(std430, binding = 9) readonly buffer EnvSgs { EnvLobe env_lobes[]; };
+layout(std430, binding = 10) readonly buffer IsgTable { float isg_table[]; };
+layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+// ints: K, patches per side, evaluator (0 table, 1 paper), sphere count;
+// floats: ln ε, node threshold (patch widths), cosine-SG λ, cosine-SG μ.
+layout(std430, binding = 12) readonly buffer IsgParams {
+    uvec4 ints;
+    vec4 floats;
+} isg_params;
+
+#define ISG_LUT_FETCH(i) isg_table[i]
+#define ISG_BVH_NODE(i) bvh_nodes[i]
+#include "../../common/isg_visibility.glsl"
+
+// (1 − e^{−2λ})/λ · 2π: the sphere integral of a unit-amplitude SG.
+float isg_full_integral(float lambda) {
+    return 2.0 * PI * sg_unit_integral_over_2pi(lambda);
+}
+
+vec3 shade_point(ShadePoint sp) {
+    IsgSettings st;
+    st.side = int(isg_params.ints.y);
+    st.evaluator = int(isg_params.ints.z);
+    st.log_epsilon = isg_params.floats.x;
+    st.node_threshold = isg_params.floats.y;
+    uint spheres = isg_params.ints.w;
+    float cos_lambda = isg_params.floats.z;
+    float cos_mu = isg_params.floats.w;
+    vec3 n = sp.normal;
+
+    vec3 e = vec3(0.0);
+    uint k_count = isg_params.ints.x;
+    for (uint k = 0u; k < k_count; ++k) {
+        EnvLobe l = env_lobes[k];
+        vec3 axis;
+        float lambda;
+        float log_mu = sg_product_log(l.axis_lambda.xyz, l.axis_lambda.w, 1.0, n, cos_lambda, cos_mu, axis, lambda);
+        float occ = isg_occlusion(sp.position, n, axis, lambda, st, spheres);
+        float visible = max(exp(log_mu) * (isg_full_integral(lambda) - isg_normalization(lambda) * occ), 0.0);
+        e += l.mu.rgb * visible;
+    }
+    vec3 result = sp.material.diffuse.rgb / PI * e;
+
+    vec3 ks = sp.material.specular.rgb;
+    if (all(equal(ks, vec3(0.0)))) return result;
+    float s = sp.material.specular.w;
+    vec3 spec = blinn_phong_prefiltered(prefiltered_env, n, sp.view, ks, s);
+    float ratio = 1.0;
+    if (spheres > 0u) {
+        float ndv = max(abs(dot(n, sp.view)), 1e-6);
+        vec3 r = normalize(2.0 * dot(n, sp.view) * n - sp.view);
+        vec3 axis;
+        float lambda;
+        sg_product_log(r, s / (4.0 * ndv), 1.0, n, cos_lambda, cos_mu, axis, lambda);
+        float occ = isg_occlusion(sp.position, n, axis, lambda, st, spheres);
+        float full = isg_full_integral(lambda);
+        ratio = clamp((full - isg_normalization(lambda) * occ) / full, 0.0, 1.0);
+    }
+    return result + spec * ratio;
+}

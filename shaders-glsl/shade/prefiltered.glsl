@@ -1,0 +1,36 @@
+// Lookups into the SG-prefiltered environment atlas (engine passes::shade::none::prefiltered_atlas):
+// levels k = 0..frame.size.w−1 hold Γ̄_L at λ_k = 4^(k−1) (ISG Eq. 10), stacked vertically.
+#ifndef SHADE_PREFILTERED_GLSL
+#define SHADE_PREFILTERED_GLSL
+#include "common.glsl"
+
+vec3 prefiltered_level(sampler2D atlas, vec3 r, float level) {
+    float levels = float(frame.size.w);
+    vec2 uv = envmap_uv(r);
+    float rows = float(textureSize(atlas, 0).y) / levels;
+    float v = clamp(uv.y, 0.5 / rows, 1.0 - 0.5 / rows);
+    return textureLod(atlas, vec2(uv.x, (level + v) / levels), 0.0).rgb;
+}
+
+// Normalized prefiltered radiance around r for an SG of sharpness λ, interpolated in log λ.
+vec3 prefiltered_lookup(sampler2D atlas, vec3 r, float lambda) {
+    float t = clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.size.w) - 1.0);
+    float k = floor(t);
+    float f = t - k;
+    vec3 a = prefiltered_level(atlas, r, k);
+    vec3 b = prefiltered_level(atlas, r, min(k + 1.0, float(frame.size.w) - 1.0));
+    return mix(a, b, f);
+}
+
+// Normalized Blinn-Phong k_s (s+8)/(8π) (n·h)^s as one SG around the reflection direction r with
+// λ = s / (4 n·v) (half-vector warp), integrated against the prefiltered environment:
+//   L_s ≈ k_s (s+8)/(8π) (n·r)⁺ Γ̄(r, λ) · 2π(1 − e^{−2λ})/λ.
+vec3 blinn_phong_prefiltered(sampler2D atlas, vec3 n, vec3 view, vec3 ks, float s) {
+    float nv = max(dot(n, view), 1e-3);
+    vec3 r = reflect(-view, n);
+    float lambda = s / (4.0 * nv);
+    float nr = max(dot(n, r), 0.0);
+    float sg_integral = 2.0 * PI * (1.0 - exp(-2.0 * lambda)) / lambda;
+    return ks * ((s + 8.0) / (8.0 * PI)) * nr * prefiltered_lookup(atlas, r, lambda) * sg_integral;
+}
+#endif
