@@ -1,8 +1,10 @@
 //! Scene builders for the demos and tests: the default bunny scene and analytic test scenes.
 //! (chess, cloth and battle arrive with their issues.)
 
+use engine::blockers::Sphere;
 use engine::math::envmap::LatLongMap;
-use engine::scene::{load_environment, load_obj, Camera, Instance, Material, Mesh, Scene};
+use engine::scene::blockers::fitted_spheres;
+use engine::scene::{load_environment, load_obj, Camera, Instance, Material, Mesh, Scene, SceneBlockers, Skin};
 use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -16,7 +18,7 @@ pub fn assets_dir() -> PathBuf {
 }
 
 /// Scenes `--scene` accepts.
-pub const SCENES: &[&str] = &["bunny", "furnace", "sphere"];
+pub const SCENES: &[&str] = &["bunny", "furnace", "sphere", "arm"];
 
 /// A square ground plane of half-size `half` at y = 0, tessellated `n` × `n` (per-vertex shading
 /// needs vertices), normal +Y.
@@ -80,6 +82,10 @@ pub fn bunny_scene(env: Option<&Path>) -> anyhow::Result<Scene> {
     let scale = 1.0 / (hi.y - lo.y);
     let centre = 0.5 * (lo + hi);
     let transform = Mat4::from_scale(Vec3::splat(scale)) * Mat4::from_translation(Vec3::new(-centre.x, -lo.y, -centre.z));
+    // 64 blocker spheres (SHEXP §6.2 fit), fitted once and cached beside the mesh; refitted when the
+    // mesh or the settings change.
+    let settings = engine::blockers::fit::FitSettings::default();
+    let spheres = fitted_spheres(&bunny, &settings, &assets.join("meshes/bunny.spheres.json"))?;
     Ok(Scene {
         meshes: vec![bunny, ground_plane(2.0, 32)],
         materials: vec![
@@ -93,6 +99,7 @@ pub fn bunny_scene(env: Option<&Path>) -> anyhow::Result<Scene> {
         environment,
         environment_intensity: 1.0,
         lights: Vec::new(),
+        blockers: SceneBlockers { spheres: vec![Some(spheres)], ..Default::default() },
         camera: Camera { eye: Vec3::new(0.0, 0.9, 2.4), target: Vec3::new(0.0, 0.4, 0.0), fov_y_degrees: 40.0 },
     })
 }
@@ -107,6 +114,7 @@ pub fn furnace_scene(albedo: f32, radiance: f32) -> Scene {
         environment: LatLongMap::constant(64, 32, [radiance; 3]),
         environment_intensity: 1.0,
         lights: Vec::new(),
+        blockers: Default::default(),
         camera: Camera { eye: Vec3::new(0.0, 1.5, 0.01), target: Vec3::ZERO, fov_y_degrees: 40.0 },
     }
 }
@@ -129,6 +137,7 @@ pub fn sphere_scene(stacks: u32) -> Scene {
         environment: LatLongMap { width: w, height: h, texels },
         environment_intensity: 1.0,
         lights: Vec::new(),
+        blockers: Default::default(),
         camera: Camera { eye: Vec3::new(0.0, 0.8, 3.0), target: Vec3::ZERO, fov_y_degrees: 45.0 },
     }
 }
@@ -139,6 +148,90 @@ pub fn build_scene(name: &str, env: Option<&Path>) -> anyhow::Result<Scene> {
         "bunny" => bunny_scene(env),
         "furnace" => Ok(furnace_scene(0.5, 1.0)),
         "sphere" => Ok(sphere_scene(64)),
+        "arm" => Ok(arm_scene(std::f32::consts::FRAC_PI_3)),
         other => anyhow::bail!("unknown scene '{other}' (available: {})", SCENES.join(", ")),
+    }
+}
+
+/// A skinned cylinder "arm" along +x from 0 to [`ARM_LENGTH`], radius [`ARM_RADIUS`], with two bones:
+/// bone 0 (upper arm) is the identity, bone 1 (forearm) rotates about the elbow at x = 1 around +z.
+/// Skin weights blend linearly over x in [0.8, 1.2]. Returns the mesh and its skin.
+pub fn skinned_arm(rings: u32, segments: u32) -> (Mesh, Skin) {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut indices = Vec::new();
+    for i in 0..=rings {
+        let x = ARM_LENGTH * i as f32 / rings as f32;
+        for j in 0..segments {
+            let a = std::f32::consts::TAU * j as f32 / segments as f32;
+            let (s, c) = a.sin_cos();
+            positions.push(Vec3::new(x, ARM_RADIUS * c, ARM_RADIUS * s));
+            normals.push(Vec3::new(0.0, c, s));
+        }
+    }
+    for i in 0..rings {
+        for j in 0..segments {
+            let a = i * segments + j;
+            let b = i * segments + (j + 1) % segments;
+            let (c, d) = (a + segments, b + segments);
+            indices.extend_from_slice(&[a, c, b, b, c, d]);
+        }
+    }
+    let skin = Skin {
+        joints: vec![[0, 1, 0, 0]; positions.len()],
+        weights: positions
+            .iter()
+            .map(|p| {
+                let t = ((p.x - 0.8) / 0.4).clamp(0.0, 1.0);
+                [1.0 - t, t, 0.0, 0.0]
+            })
+            .collect(),
+    };
+    (Mesh { name: "arm".into(), positions, normals, indices }, skin)
+}
+
+pub const ARM_LENGTH: f32 = 2.0;
+pub const ARM_RADIUS: f32 = 0.15;
+
+/// Spheres along the arm's axis that bound the cylinder at rest: centres every `spacing`, radius
+/// sqrt(r² + (spacing/2)²) so the cylinder between two centres is covered.
+pub fn arm_spheres(count: u32) -> Vec<Sphere> {
+    let spacing = ARM_LENGTH / (count - 1) as f32;
+    let radius = (ARM_RADIUS * ARM_RADIUS + 0.25 * spacing * spacing).sqrt();
+    (0..count)
+        .map(|i| Sphere::new(glam::DVec3::new((spacing * i as f32) as f64, 0.0, 0.0), radius as f64))
+        .collect()
+}
+
+/// Bone matrices of the arm with the forearm bent by `angle` (radians) about the elbow (x = 1, +z axis).
+pub fn arm_bones(angle: f32) -> Vec<Mat4> {
+    let elbow = Vec3::new(1.0, 0.0, 0.0);
+    vec![
+        Mat4::IDENTITY,
+        Mat4::from_translation(elbow) * Mat4::from_rotation_z(angle) * Mat4::from_translation(-elbow),
+    ]
+}
+
+/// The skinned arm, bent by `angle`, raised above a ground plane under the smooth sky of
+/// [`sphere_scene`]; 12 blocker spheres follow the skin.
+pub fn arm_scene(angle: f32) -> Scene {
+    let (arm, skin) = skinned_arm(24, 16);
+    let sky = sphere_scene(2).environment;
+    Scene {
+        meshes: vec![arm, ground_plane(2.0, 16)],
+        materials: vec![Material::diffuse(Vec3::new(0.8, 0.5, 0.4)), Material::diffuse(Vec3::splat(0.6))],
+        instances: vec![
+            Instance { mesh: 0, transform: Mat4::from_translation(Vec3::new(-1.0, 0.5, 0.0)), material: 0 },
+            Instance { mesh: 1, transform: Mat4::IDENTITY, material: 1 },
+        ],
+        environment: sky,
+        environment_intensity: 1.0,
+        lights: Vec::new(),
+        blockers: SceneBlockers {
+            spheres: vec![Some(arm_spheres(12))],
+            skins: vec![Some(skin)],
+            bones: arm_bones(angle),
+        },
+        camera: Camera { eye: Vec3::new(0.0, 1.5, 3.5), target: Vec3::new(0.0, 0.5, 0.0), fov_y_degrees: 45.0 },
     }
 }

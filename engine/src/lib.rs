@@ -14,6 +14,7 @@ pub mod output;
 pub mod passes;
 pub mod renderer;
 pub mod scene;
+pub mod tables;
 
 
 /// The engine's error at its outer boundary.

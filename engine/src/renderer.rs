@@ -1,4 +1,5 @@
-//! One frame: skin → (per-vertex shade) → G-buffer → shade or compose → tonemap, with per-pass
+//! One frame: skin → blocker spheres → blocker BVH → (per-vertex shade) → G-buffer → shade or
+//! compose → tonemap, with per-pass
 //! GPU times. Everything is allocated in [`Renderer::new`]; a steady frame allocates no device
 //! memory (checked by a test through the allocator's counters).
 
@@ -6,6 +7,8 @@ use crate::gpu::{
     Buffer, BufferDesc, Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result,
     SwapchainImage,
 };
+use crate::passes::blocker_bvh::{node_buffer_size, BlockerBvhPass};
+use crate::passes::blocker_spheres::BlockerSpheresPass;
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 use crate::passes::shade::{create_technique, ComposePass, ShadeInputs, ShadeTarget, Technique};
@@ -33,6 +36,22 @@ pub struct GpuScene {
     pub lights: Vec<SphereLight>,
     pub vertex_count: u32,
     pub index_count: u32,
+    /// World-space blocker spheres `vec4(center, radius)`, rewritten every frame by the
+    /// `blocker_spheres` pass (at least one element, so the binding is valid with no spheres).
+    pub spheres: Buffer,
+    /// The blocker BVH ([`crate::passes::blocker_bvh::GpuBvhNode`], root at index 0), rebuilt every
+    /// frame by the `blocker_bvh` pass.
+    pub bvh_nodes: Buffer,
+    /// Number of blocker spheres (0: no blocker passes run; `spheres` and `bvh_nodes` stay valid).
+    pub sphere_count: u32,
+    /// Rest spheres with their instance and bone binding
+    /// ([`crate::passes::blocker_spheres::GpuBlockerSphere`]).
+    pub blocker_rest: Buffer,
+    /// Per-vertex bone influences ([`crate::passes::blocker_spheres::GpuVertexSkin`]).
+    pub vertex_skins: Buffer,
+    /// Bone matrices (mat4, host-visible, rewritten by [`Renderer::set_bones`]).
+    pub bones: Buffer,
+    pub bone_count: u32,
 }
 
 impl GpuScene {
@@ -79,6 +98,9 @@ impl GpuScene {
             texels: scene.environment.texels.iter().map(|t| t.map(|c| c * k)).collect(),
         };
         let env_bytes: Vec<f32> = env.texels.iter().flat_map(|t| [t[0], t[1], t[2], 1.0]).collect();
+        let blockers = crate::passes::blocker_spheres::gather(scene)?;
+        let sphere_count = blockers.rest.len() as u32;
+        let bone_count = blockers.bones.len() as u32;
         let n = vertices.len() as u64;
         let mut made: Vec<Buffer> = Vec::new();
         let mut step = |r: Result<Buffer>| -> Result<()> {
@@ -88,11 +110,17 @@ impl GpuScene {
         let r = (|| {
             step(gpu.upload_buffer("scene-vertices", BufferDesc::gpu_only(0), &vertices))?;
             step(gpu.upload_buffer("scene-indices", BufferDesc::index(0), &indices))?;
-            step(gpu.upload_buffer("scene-objects", BufferDesc::gpu_only(0), &objects))?;
+            // Host-visible: instance transforms are rewritten by Renderer::set_instance_transform.
+            step(gpu.create_buffer("scene-objects", BufferDesc::upload(std::mem::size_of_val(&objects[..]) as u64)))?;
             step(gpu.upload_buffer("scene-materials", BufferDesc::gpu_only(0), &materials))?;
             step(gpu.create_buffer("scene-world-vertices", BufferDesc::gpu_only(n * 32)))?;
             step(gpu.upload_buffer("scene-vertex-radiance", BufferDesc::gpu_only(0), &vec![[0f32; 4]; n as usize]))?;
             step(gpu.create_buffer("frame-constants", BufferDesc::upload(std::mem::size_of::<FrameData>() as u64)))?;
+            step(gpu.create_buffer("blocker-spheres", BufferDesc::gpu_only(16 * sphere_count.max(1) as u64)))?;
+            step(gpu.create_buffer("blocker-bvh-nodes", BufferDesc::gpu_only(node_buffer_size(sphere_count))))?;
+            step(gpu.upload_buffer("blocker-rest", BufferDesc::gpu_only(64), &blockers.rest))?;
+            step(gpu.upload_buffer("scene-vertex-skins", BufferDesc::gpu_only(0), &blockers.vertex_skins))?;
+            step(gpu.create_buffer("scene-bones", BufferDesc::upload(64 * bone_count.max(1) as u64)))?;
             Ok(())
         })();
         let environment = r.and_then(|_| {
@@ -113,7 +141,7 @@ impl GpuScene {
         };
         let mut it = made.into_iter();
         let mut next = || it.next().ok_or_else(|| GpuError::Other("internal: buffer list".into()));
-        Ok(Self {
+        let mut out = Self {
             vertices: next()?,
             indices: next()?,
             objects: next()?,
@@ -126,7 +154,20 @@ impl GpuScene {
             lights: scene.lights.clone(),
             vertex_count: n as u32,
             index_count: indices.len() as u32,
-        })
+            spheres: next()?,
+            bvh_nodes: next()?,
+            sphere_count,
+            blocker_rest: next()?,
+            vertex_skins: next()?,
+            bones: next()?,
+            bone_count,
+        };
+        let written = out.objects.write(&objects).and_then(|_| out.bones.write(&blockers.bones));
+        if let Err(e) = written {
+            out.destroy(gpu);
+            return Err(e);
+        }
+        Ok(out)
     }
 
     pub fn destroy(self, gpu: &Gpu) {
@@ -138,6 +179,11 @@ impl GpuScene {
             self.world_vertices,
             self.vertex_radiance,
             self.frame,
+            self.spheres,
+            self.bvh_nodes,
+            self.blocker_rest,
+            self.vertex_skins,
+            self.bones,
         ] {
             gpu.destroy_buffer(b);
         }
@@ -171,6 +217,8 @@ struct Parts {
     radiance: Option<Image>,
     ldr: Option<Image>,
     skin: Option<SkinPass>,
+    blocker_spheres: Option<BlockerSpheresPass>,
+    blocker_bvh: Option<BlockerBvhPass>,
     gbuffer_pass: Option<GBufferPass>,
     compose: Option<ComposePass>,
     tonemap: Option<TonemapPass>,
@@ -198,6 +246,12 @@ impl Parts {
         if let Some(x) = self.skin {
             x.destroy(gpu);
         }
+        if let Some(x) = self.blocker_spheres {
+            x.destroy(gpu);
+        }
+        if let Some(x) = self.blocker_bvh {
+            x.destroy(gpu);
+        }
         for i in [self.radiance, self.ldr].into_iter().flatten() {
             gpu.destroy_image(i);
         }
@@ -218,6 +272,8 @@ pub struct Renderer {
     /// Tone-mapped sRGB (RGBA8).
     pub ldr: Image,
     skin: SkinPass,
+    blocker_spheres: BlockerSpheresPass,
+    blocker_bvh: BlockerBvhPass,
     gbuffer_pass: GBufferPass,
     compose: ComposePass,
     tonemap: TonemapPass,
@@ -242,6 +298,9 @@ impl Renderer {
             p.radiance = Some(gpu.create_image("radiance", ImageDesc::target(w, h, ImageFormat::Rgba32f))?);
             p.ldr = Some(gpu.create_image("ldr", ImageDesc::target(w, h, ImageFormat::Rgba8Unorm))?);
             p.skin = Some(SkinPass::new(gpu)?);
+            p.blocker_spheres = Some(BlockerSpheresPass::new(gpu)?);
+            let spheres = p.scene.as_ref().map_or(0, |s| s.sphere_count);
+            p.blocker_bvh = Some(BlockerBvhPass::new(gpu, spheres)?);
             p.gbuffer_pass = Some(GBufferPass::new(gpu)?);
             p.compose = Some(ComposePass::new(gpu)?);
             p.tonemap = Some(TonemapPass::new(gpu)?);
@@ -270,6 +329,8 @@ impl Renderer {
             radiance: p.radiance.ok_or_else(missing)?,
             ldr: p.ldr.ok_or_else(missing)?,
             skin: p.skin.ok_or_else(missing)?,
+            blocker_spheres: p.blocker_spheres.ok_or_else(missing)?,
+            blocker_bvh: p.blocker_bvh.ok_or_else(missing)?,
             gbuffer_pass: p.gbuffer_pass.ok_or_else(missing)?,
             compose: p.compose.ok_or_else(missing)?,
             tonemap: p.tonemap.ok_or_else(missing)?,
@@ -328,6 +389,36 @@ impl Renderer {
         }
     }
 
+    /// Animate: the object-to-world transform of instance `i` from the next frame on (moves its vertices
+    /// and blocker spheres; rewrites a host-visible buffer, allocates nothing).
+    pub fn set_instance_transform(&mut self, i: usize, transform: glam::Mat4) -> Result<()> {
+        let count = self.scene.objects.desc.size as usize / std::mem::size_of::<GpuObject>();
+        if i >= count || !transform.is_finite() {
+            return Err(GpuError::Other(format!("instance {i} of {count}, or a non-finite transform")));
+        }
+        let object = GpuObject {
+            model: transform.to_cols_array(),
+            normal_matrix: transform.inverse().transpose().to_cols_array(),
+        };
+        let mut all: Vec<GpuObject> = self.scene.objects.read()?;
+        all[i] = object;
+        self.scene.objects.write(&all[..count])
+    }
+
+    /// Animate: the bone matrices (rest → posed object space) from the next frame on, for the skin
+    /// pass and the blocker spheres alike. `bones.len()` must equal the scene's bone count.
+    pub fn set_bones(&mut self, bones: &[glam::Mat4]) -> Result<()> {
+        if bones.len() != self.scene.bone_count as usize || bones.iter().any(|m| !m.is_finite()) {
+            return Err(GpuError::Other(format!(
+                "{} bone matrices (the scene has {}), or a non-finite one",
+                bones.len(),
+                self.scene.bone_count
+            )));
+        }
+        let cols: Vec<[f32; 16]> = bones.iter().map(|m| m.to_cols_array()).collect();
+        self.scene.bones.write(&cols)
+    }
+
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
         self.render_to(gpu, None)
@@ -348,6 +439,8 @@ impl Renderer {
             radiance,
             ldr,
             skin,
+            blocker_spheres,
+            blocker_bvh,
             gbuffer_pass,
             compose,
             tonemap,
@@ -359,6 +452,8 @@ impl Renderer {
         let per_vertex = settings.per_vertex;
         let record = |rec: &mut Recorder| {
             skin.record(rec, scene)?;
+            blocker_spheres.record(rec, scene)?;
+            blocker_bvh.record(rec, &scene.spheres, &scene.bvh_nodes, scene.sphere_count)?;
             let inputs = ShadeInputs { scene };
             if per_vertex {
                 technique.record(rec, &inputs, ShadeTarget::Vertex)?;
@@ -397,6 +492,8 @@ impl Renderer {
         self.compose.destroy(gpu);
         self.gbuffer_pass.destroy(gpu);
         self.skin.destroy(gpu);
+        self.blocker_spheres.destroy(gpu);
+        self.blocker_bvh.destroy(gpu);
         gpu.destroy_image(self.radiance);
         gpu.destroy_image(self.ldr);
         self.gbuffer.destroy(gpu);

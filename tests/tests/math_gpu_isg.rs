@@ -99,7 +99,7 @@ fn isg_twin_matches_cpu() {
     for c in 0..600 {
         let lambda = if c < 2 * special.len() { special[c % special.len()] } else { log_uniform(&mut rng, 1e-4, 1e5) };
         let w = 1.0 / lambda.max(1e-4).sqrt();
-        let mut angle = |rng: &mut Pcg32, k: usize| match (c + k) % 6 {
+        let angle = |rng: &mut Pcg32, k: usize| match (c + k) % 6 {
             0 => rng.uniform(0.0, PI),
             1 => (FRAC_PI_2 + w * rng.uniform(-4.0, 4.0)).clamp(0.0, PI), // the transition
             2 => [0.0, PI, FRAC_PI_2][(c / 6) % 3],                       // ends and centre

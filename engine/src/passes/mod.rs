@@ -1,6 +1,7 @@
 //! `engine::passes`: one file per pass, each with the shader folder of the same name.
 
 pub mod blocker_bvh;
+pub mod blocker_spheres;
 pub mod gbuffer;
 pub mod layout;
 pub mod shade;

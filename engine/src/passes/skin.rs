@@ -1,4 +1,6 @@
-//! `skin` pass (shaders-glsl/skin): object-space vertices → world space, every frame.
+//! `skin` pass (shaders-glsl/skin): object-space vertices → world space, every frame: linear blend
+//! skinning by `GpuScene::bones` (per-vertex `GpuScene::vertex_skins`; identity for rigid vertices), then
+//! the instance transform.
 
 use crate::gpu::{Binding, ComputePipeline, Gpu, Recorder, Result};
 use crate::renderer::GpuScene;
@@ -19,8 +21,10 @@ impl SkinPass {
                 Binding::buffer("Vertices", &scene.vertices),
                 Binding::buffer("Objects", &scene.objects),
                 Binding::buffer("WorldVertices", &scene.world_vertices),
+                Binding::buffer("Bones", &scene.bones),
+                Binding::buffer("VertexSkins", &scene.vertex_skins),
             ],
-            bytemuck::bytes_of(&scene.vertex_count),
+            bytemuck::cast_slice(&[scene.vertex_count, scene.bone_count]),
             [scene.vertex_count, 1, 1],
         )
     }

@@ -1,9 +1,11 @@
 //! `engine::scene`: meshes, materials, environment, camera — plain data, no Vulkan.
 
+pub mod blockers;
 mod env;
 mod mesh;
 pub mod triangle_bvh;
 
+pub use blockers::{SceneBlockers, Skin};
 pub use env::load_environment;
 pub use mesh::{compute_normals, load_gltf, load_obj, GltfScene, Mesh};
 
@@ -109,6 +111,8 @@ pub struct Scene {
     pub environment_intensity: f32,
     /// Spherical lights (may be empty).
     pub lights: Vec<SphereLight>,
+    /// Blocker sphere sets per mesh, skins and bone matrices (`Default`: none).
+    pub blockers: SceneBlockers,
     pub camera: Camera,
 }
 

@@ -1,0 +1,132 @@
+//! Blocker sphere sets and skinning of a scene (plain data, no Vulkan).
+//!
+//! - Sphere sets are per mesh, in the mesh's object space ([`SceneBlockers::spheres`]); every instance of
+//!   a mesh with a set contributes its spheres, moved by the instance transform every frame.
+//! - Skinning is linear blend skinning: a mesh may have a [`Skin`] (up to four bones per vertex); bone
+//!   matrices ([`SceneBlockers::bones`]) map the mesh's rest pose to its posed object space (identity =
+//!   rest) and are shared by every skinned mesh. The skin pass and the sphere pass read the same bone
+//!   matrices, so spheres follow the skin (SHEXP §6.2 "Animation").
+//! - A skinned mesh's spheres are bound to bones at rest by [`bind_sphere_to_bones`]: the skin weights of
+//!   the vertices near the sphere, averaged. SHEXP binds by mean value coordinates of the centre w.r.t.
+//!   the rest mesh, then folds them into bone weights; averaging the weights of nearby vertices is the
+//!   same idea with a local kernel instead of MVCs (cheap, and equal for rigidly moving parts).
+
+use super::Mesh;
+use engine_blockers::file::{load_or_fit, CacheOutcome};
+use engine_blockers::fit::FitSettings;
+use engine_blockers::Sphere;
+use glam::{Mat4, Vec3};
+use std::path::Path;
+
+/// Per-vertex bone influences of one mesh (`joints[v][k]` with weight `weights[v][k]`; weights of a
+/// vertex sum to 1, or to 0 for a vertex that follows the instance transform only).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Skin {
+    pub joints: Vec<[u32; 4]>,
+    pub weights: Vec<[f32; 4]>,
+}
+
+/// The scene's blockers and skinning. `Default`: no spheres, no skins, no bones.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneBlockers {
+    /// Sphere set per mesh (index = mesh index; missing or `None`: the mesh casts no sphere shadows).
+    pub spheres: Vec<Option<Vec<Sphere>>>,
+    /// Skin per mesh (index = mesh index; missing or `None`: rigid).
+    pub skins: Vec<Option<Skin>>,
+    /// Bone matrices at the scene's initial pose (the renderer rewrites them per frame).
+    pub bones: Vec<Mat4>,
+}
+
+impl SceneBlockers {
+    pub fn spheres_of(&self, mesh: usize) -> Option<&[Sphere]> {
+        self.spheres.get(mesh).and_then(|s| s.as_deref())
+    }
+    pub fn skin_of(&self, mesh: usize) -> Option<&Skin> {
+        self.skins.get(mesh).and_then(|s| s.as_ref())
+    }
+}
+
+/// Bone influences of a sphere at rest: the skin weights of the mesh vertices within the sphere (or,
+/// when none is, of the 8 nearest vertices), weighted by `1 − d/R` with R the largest of those
+/// distances plus a margin, summed per bone; the four largest are kept and normalized. All-zero
+/// weights (a rigid region) give all-zero weights (the sphere then follows the instance only).
+pub fn bind_sphere_to_bones(sphere: &Sphere, positions: &[Vec3], skin: &Skin) -> ([u32; 4], [f32; 4]) {
+    let c = sphere.center.as_vec3();
+    let mut near: Vec<(f32, usize)> = positions.iter().enumerate().map(|(i, p)| (p.distance(c), i)).collect();
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let inside = near.iter().take_while(|(d, _)| *d <= sphere.radius as f32).count();
+    near.truncate(inside.max(8));
+    let reach = near.last().map_or(0.0, |n| n.0) * 1.25 + 1e-6;
+    let mut acc: Vec<(u32, f32)> = Vec::new();
+    for &(d, v) in &near {
+        let k = 1.0 - d / reach;
+        let (Some(j), Some(w)) = (skin.joints.get(v), skin.weights.get(v)) else { continue };
+        for s in 0..4 {
+            if w[s] > 0.0 {
+                match acc.iter_mut().find(|a| a.0 == j[s]) {
+                    Some(a) => a.1 += k * w[s],
+                    None => acc.push((j[s], k * w[s])),
+                }
+            }
+        }
+    }
+    acc.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    acc.truncate(4);
+    let total: f32 = acc.iter().map(|a| a.1).sum();
+    let mut joints = [0u32; 4];
+    let mut weights = [0f32; 4];
+    if total > 0.0 {
+        for (k, (j, w)) in acc.into_iter().enumerate() {
+            joints[k] = j;
+            weights[k] = w / total;
+        }
+    }
+    (joints, weights)
+}
+
+/// The fit-once sphere set of a scene mesh: loads `cache` when it matches the mesh and `settings`,
+/// otherwise fits (engine_blockers, SHEXP §6.2) and rewrites it. Logs when it fits.
+pub fn fitted_spheres(mesh: &Mesh, settings: &FitSettings, cache: &Path) -> Result<Vec<Sphere>, super::SceneError> {
+    let err = |m: String| super::SceneError::invalid(cache, m);
+    let positions = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+    let triangles = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let bmesh = engine_blockers::mesh::Mesh::new(positions, triangles).map_err(|e| err(e.to_string()))?;
+    let outcome = load_or_fit(&bmesh, &mesh.name, settings, cache, &mut |_| {}).map_err(|e| err(e.to_string()))?;
+    if let CacheOutcome::Fitted { reason, .. } = &outcome {
+        log::info!("{}: fitted {} spheres to '{}' ({reason})", cache.display(), settings.count, mesh.name);
+    }
+    Ok(outcome.spheres().to_vec())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    #[test]
+    fn binding_follows_nearby_weights() {
+        let positions: Vec<Vec3> = (0..=20).map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0)).collect();
+        // Bone 0 left of x = 1, bone 1 right of it, a linear blend over [0.8, 1.2].
+        let skin = Skin {
+            joints: vec![[0, 1, 0, 0]; 21],
+            weights: positions
+                .iter()
+                .map(|p| {
+                    let t = ((p.x - 0.8) / 0.4).clamp(0.0, 1.0);
+                    [1.0 - t, t, 0.0, 0.0]
+                })
+                .collect(),
+        };
+        let left = bind_sphere_to_bones(&Sphere::new(DVec3::new(0.3, 0.0, 0.0), 0.25), &positions, &skin);
+        assert_eq!(left, ([0, 0, 0, 0], [1.0, 0.0, 0.0, 0.0]));
+        let right = bind_sphere_to_bones(&Sphere::new(DVec3::new(1.7, 0.0, 0.0), 0.25), &positions, &skin);
+        assert_eq!(right.0[0], 1);
+        assert!((right.1[0] - 1.0).abs() < 1e-6);
+        let mid = bind_sphere_to_bones(&Sphere::new(DVec3::new(1.0, 0.0, 0.0), 0.15), &positions, &skin);
+        assert!((mid.1.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert!(mid.1[0] > 0.3 && mid.1[1] > 0.3, "{mid:?}");
+        // A rigid mesh (all weights zero) binds to nothing.
+        let rigid = Skin { joints: vec![[0; 4]; 21], weights: vec![[0.0; 4]; 21] };
+        assert_eq!(bind_sphere_to_bones(&Sphere::new(DVec3::ZERO, 0.3), &positions, &rigid).1, [0.0; 4]);
+    }
+}
