@@ -120,17 +120,20 @@ void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
     }
 }
 
-// Ŝ at one corner: the table (with the per-λ warp constants wc and slice fl) or the paper's fit.
-float isg_corner(float theta, float phi, float lambda, int evaluator, vec2 wc, float fl) {
+// Ŝ at a corner given its warped coordinates (table) or its angles (the paper's fit).
+float isg_corner(float theta, float phi, float st, float sp, float lambda, int evaluator, float fl) {
 #ifdef ISG_LUT_FETCH
-    if (evaluator == ISG_EVAL_TABLE) {
-        return isg_lut_at(isg_lut_warp(theta, wc), isg_lut_warp(phi, wc), fl);
-    }
+    if (evaluator == ISG_EVAL_TABLE) return isg_lut_at(st, sp, fl);
 #endif
     return isg_paper(theta, phi, lambda);
 }
 
-// Sum of the normalized ISG over the marked patches, run by run along each row.
+float isg_warp_of(float x, vec2 wc, int evaluator) {
+    return evaluator == ISG_EVAL_TABLE ? isg_lut_warp(x, wc) : 0.0;
+}
+
+// Sum of the normalized ISG over the marked patches, run by run along each row (the warps of a
+// row's two θ lines are shared by its runs).
 float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int evaluator) {
     vec2 wc = isg_lut_warp_consts(lambda);
     float fl = isg_lut_slice(lambda);
@@ -140,6 +143,8 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
         if (m == 0u) continue;
         float t0 = g.lo + float(i) * g.delta;
         float t1 = t0 + g.delta;
+        float s0 = isg_warp_of(t0, wc, evaluator);
+        float s1 = isg_warp_of(t1, wc, evaluator);
         while (m != 0u) {
             int j0 = findLSB(m);
             uint ones = m >> uint(j0);
@@ -149,42 +154,86 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
             m &= ~isg_bit_range(j0, j1 - 1);
             float p0 = g.lo + float(j0) * g.delta;
             float p1 = g.lo + float(j1) * g.delta;
-            sum += isg_corner(t1, p1, lambda, evaluator, wc, fl) - isg_corner(t0, p1, lambda, evaluator, wc, fl)
-                 - isg_corner(t1, p0, lambda, evaluator, wc, fl) + isg_corner(t0, p0, lambda, evaluator, wc, fl);
+            float q0 = isg_warp_of(p0, wc, evaluator);
+            float q1 = isg_warp_of(p1, wc, evaluator);
+            sum += isg_corner(t1, p1, s1, q1, lambda, evaluator, fl) - isg_corner(t0, p1, s0, q1, lambda, evaluator, fl)
+                 - isg_corner(t1, p0, s1, q0, lambda, evaluator, fl) + isg_corner(t0, p0, s0, q0, lambda, evaluator, fl);
         }
     }
     return max(sum, 0.0);
 }
 
-// Occluded part of the lobe (axis, λ) seen from p (normal n), in Ŝ units (see the top of the file).
-float isg_occlusion(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint sphere_count) {
-    if (sphere_count == 0u) return 0.0;
+// The blockers seen from one receiver, gathered once and shared by all lobes of the point: each as
+// its cap of directions (unit centre direction, half-angle), after the self-shadowing rule.
+#ifndef ISG_MAX_BLOCKERS
+#define ISG_MAX_BLOCKERS 64
+#endif
+struct IsgBlockers {
+    vec4 caps[ISG_MAX_BLOCKERS];
+    int count;
+    // Blockers that found the list full (the caller must then not use the list).
+    int dropped;
+};
+
+void isg_add_blocker(inout IsgBlockers b, vec3 p, vec3 n, vec4 s) {
+    vec4 blk;
+    if (!blocker_for_receiver(p, n, s, blk) || blk.w <= 0.0) return;
+    vec3 d = blk.xyz - p;
+    float dist = length(d);
+    if (dist <= 0.0) return;
+    if (b.count >= ISG_MAX_BLOCKERS) {
+        b.dropped += 1;
+        return;
+    }
+    b.caps[b.count] = vec4(d / dist, sphere_subtended_half_angle(p, blk));
+    b.count += 1;
+}
+
+// Traverse the BVH from p within the cone (axis, half_angle): nodes below `take_whole` radians of
+// angular radius (and nodes that do not fit on the stack) are taken whole, leaves always.
+void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, uint sphere_count,
+                out IsgBlockers b) {
+    b.count = 0;
+    b.dropped = 0;
+    BvhCursor cur = bvh_cursor_begin(sphere_count);
+    uint node;
+    while (bvh_cursor_next(cur, node)) {
+        BvhNode nd = ISG_BVH_NODE(node);
+        vec4 s = bvh_sphere(nd);
+        if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
+        if (!bvh_is_leaf(nd)) {
+            // Always descend while p is inside the node (its angular radius is then π).
+            float psi = sphere_subtended_half_angle(p, s);
+            if (psi >= take_whole && bvh_cursor_push_children(cur, nd.left, nd.right)) continue;
+        }
+        isg_add_blocker(b, p, n, s);
+    }
+}
+
+// Occluded part of the lobe (axis, λ) by the gathered blockers, in Ŝ units.
+float isg_occlusion_of(IsgBlockers b, vec3 axis, float lambda, IsgSettings st) {
+    if (b.count == 0) return 0.0;
     IsgGrid g = isg_grid(axis, lambda, st);
     uint mask[ISG_MAX_SIDE];
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
     bool marked = false;
-    float take_whole = st.node_threshold * g.delta;
-    BvhCursor cur = bvh_cursor_begin(sphere_count);
-    uint node;
-    while (bvh_cursor_next(cur, node)) {
-        BvhNode b = ISG_BVH_NODE(node);
-        vec4 s = bvh_sphere(b);
-        if (!bvh_cone_hits(p, axis, g.cone, s)) continue;
-        if (!bvh_is_leaf(b)) {
-            // Descend while the node is large on the grid (always when p is inside it); a node that is
-            // small, or that does not fit on the stack, is taken whole (conservative: it bounds its leaves).
-            float psi = sphere_subtended_half_angle(p, s);
-            if (psi >= take_whole && bvh_cursor_push_children(cur, b.left, b.right)) continue;
-        }
-        vec4 blk;
-        if (!blocker_for_receiver(p, n, s, blk) || blk.w <= 0.0) continue;
-        vec3 d = blk.xyz - p;
-        float dist = length(d);
-        if (dist <= 0.0) continue;
-        isg_mark_cap(mask, g, d / dist, sphere_subtended_half_angle(p, blk));
+    for (int c = 0; c < b.count; ++c) {
+        vec4 cap = b.caps[c];
+        // Cone test of the cap against the cone holding the grid.
+        if (spheres_angle_between(axis, cap.xyz) > g.cone + cap.w) continue;
+        isg_mark_cap(mask, g, cap.xyz, cap.w);
         marked = true;
     }
     return marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : 0.0;
+}
+
+// Occluded part of one lobe with its own traversal (cone and node threshold from its own grid).
+float isg_occlusion(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint sphere_count) {
+    if (sphere_count == 0u) return 0.0;
+    IsgGrid g = isg_grid(axis, lambda, st);
+    IsgBlockers b;
+    isg_gather(p, n, axis, g.cone, st.node_threshold * g.delta, sphere_count, b);
+    return isg_occlusion_of(b, axis, lambda, st);
 }
 
 #endif // ISG_VISIBILITY_GLSL

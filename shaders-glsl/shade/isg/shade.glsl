@@ -7,6 +7,8 @@
 #include "../common.glsl"
 #include "../prefiltered.glsl"
 #include "../../common/sg.glsl"
+#define BVH_STACK_SIZE 32
+#define ISG_MAX_BLOCKERS 32
 #include "../../common/bvh.glsl"
 
 layout(binding = 8) uniform sampler2D prefiltered_env;
@@ -20,9 +22,9 @@ layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 // ints: K, patches per side, evaluator (0 table, 1 paper), sphere count;
 // floats: ln ε, node threshold (patch widths), cosine-SG λ, cosine-SG μ.
 layout(std430, binding = 12) readonly buffer IsgParams {
-    uvec4 ints;
-    vec4 floats;
-} isg_params;
+    uvec4 isg_ints;
+    vec4 isg_floats;
+};
 
 #define ISG_LUT_FETCH(i) isg_table[i]
 #define ISG_BVH_NODE(i) bvh_nodes[i]
@@ -35,23 +37,42 @@ float isg_full_integral(float lambda) {
 
 vec3 shade_point(ShadePoint sp) {
     IsgSettings st;
-    st.side = int(isg_params.ints.y);
-    st.evaluator = int(isg_params.ints.z);
-    st.log_epsilon = isg_params.floats.x;
-    st.node_threshold = isg_params.floats.y;
-    uint spheres = isg_params.ints.w;
-    float cos_lambda = isg_params.floats.z;
-    float cos_mu = isg_params.floats.w;
+    st.side = int(isg_ints.y);
+    st.evaluator = int(isg_ints.z);
+    st.log_epsilon = isg_floats.x;
+    st.node_threshold = isg_floats.y;
+    uint spheres = isg_ints.w;
+    float cos_lambda = isg_floats.z;
+    float cos_mu = isg_floats.w;
     vec3 n = sp.normal;
 
+    // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole
+    // below the threshold in widths of the finest lobe grid of this point. Points whose blockers
+    // overflow the list (ISG_MAX_BLOCKERS) traverse once per lobe instead.
+    uint k_count = isg_ints.x;
+    IsgBlockers blockers;
+    blockers.count = 0;
+    blockers.dropped = 0;
+    if (spheres > 0u) {
+        float finest = ISG_PI;
+        for (uint k = 0u; k < k_count; ++k) {
+            EnvLobe l = env_lobes[k];
+            vec3 axis;
+            float lambda;
+            sg_product_log(l.axis_lambda.xyz, l.axis_lambda.w, 1.0, n, cos_lambda, cos_mu, axis, lambda);
+            finest = min(finest, 2.0 * isg_limiting_angle(lambda, st.log_epsilon) / float(st.side));
+        }
+        isg_gather(sp.position, n, n, ISG_HALF_PI, st.node_threshold * finest, spheres, blockers);
+    }
     vec3 e = vec3(0.0);
-    uint k_count = isg_params.ints.x;
     for (uint k = 0u; k < k_count; ++k) {
         EnvLobe l = env_lobes[k];
         vec3 axis;
         float lambda;
         float log_mu = sg_product_log(l.axis_lambda.xyz, l.axis_lambda.w, 1.0, n, cos_lambda, cos_mu, axis, lambda);
-        float occ = isg_occlusion(sp.position, n, axis, lambda, st, spheres);
+        // A full blocker list would lose occlusion: such points traverse per lobe instead.
+        float occ = blockers.dropped == 0 ? isg_occlusion_of(blockers, axis, lambda, st)
+                                          : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
         float visible = max(exp(log_mu) * (isg_full_integral(lambda) - isg_normalization(lambda) * occ), 0.0);
         e += l.mu.rgb * visible;
     }

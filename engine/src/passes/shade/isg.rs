@@ -182,9 +182,9 @@ impl Technique for Isg {
         let prefiltered = super::none::prefiltered_atlas(gpu, "isg-prefiltered", &scene.environment_cpu)?;
         let mut made: Vec<Buffer> = Vec::new();
         let result = (|| -> Result<(Buffer, Buffer, MathTables)> {
-            let sgs = gpu.upload_buffer("isg-env-sgs", BufferDesc::gpu_only(0), bytemuck::cast_slice(&lobes_or_one(&lobes)))?;
+            let sgs = gpu.upload_buffer("isg-env-sgs", BufferDesc::gpu_only(0), &lobes_or_one(&lobes))?;
             made.push(sgs);
-            let p = gpu.upload_buffer("isg-params", BufferDesc::gpu_only(0), bytemuck::bytes_of(&params))?;
+            let p = gpu.upload_buffer("isg-params", BufferDesc::gpu_only(0), std::slice::from_ref(&params))?;
             made.push(p);
             let tables = MathTables::load(gpu, &crate::tables::default_dir(), &[MathTable::IsgLut])
                 .map_err(|e| GpuError::Other(e.to_string()))?;
