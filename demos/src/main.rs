@@ -12,7 +12,7 @@ struct Args {
     /// Scene: bunny (default), furnace, sphere.
     #[arg(long, default_value = "bunny")]
     scene: String,
-    /// Shading technique: none.
+    /// Shading technique: none, reference.
     #[arg(long, default_value = "none")]
     technique: String,
     /// Shade per vertex (interpolated) instead of per pixel.
@@ -37,6 +37,10 @@ struct Args {
     /// Output file stem (<out>/<name>.exr and .png).
     #[arg(long, default_value = "default")]
     name: String,
+    /// With --technique reference: accumulate N samples per pixel (at most 64 per frame; sets
+    /// --frames) and print the reference's relative standard error.
+    #[arg(long)]
+    spp: Option<u32>,
     /// Use the Vulkan adapter whose name contains this text.
     #[arg(long)]
     device: Option<String>,
@@ -61,7 +65,7 @@ fn main() {
 }
 
 fn run() -> anyhow::Result<()> {
-    let args = Args::parse();
+    let mut args = Args::parse();
     let scene = demos::build_scene(&args.scene, args.env.as_deref())?;
     // A window needs its display's surface extensions on the instance: open the display first.
     let (event_loop, surface_extensions) = match args.window {
@@ -86,6 +90,11 @@ fn run() -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
+    if let (Some(spp), Some(r)) = (args.spp, engine::passes::shade::reference::reference_mut(&mut renderer)) {
+        let per_frame = spp.clamp(1, 64);
+        r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: per_frame, ..r.options() })?;
+        args.frames = spp.div_ceil(per_frame);
+    }
     let result = match event_loop {
         Some(el) => {
             demos::viewer::run(el, &gpu, &mut renderer, demos::viewer::ViewerOptions { exit_after: args.exit_after })
@@ -135,6 +144,11 @@ fn render_frames(gpu: &Gpu, renderer: &mut Renderer, args: &Args) -> anyhow::Res
         println!("  {name:<24} {med:>10.3} ms");
     }
     println!("  {:<24} {total:>10.3} ms", "total");
+    let per_vertex = renderer.settings.per_vertex;
+    if let Some(r) = engine::passes::shade::reference::reference_mut(renderer) {
+        let stats = r.stats(gpu, per_vertex)?;
+        println!("reference: {} samples per item, relative standard error {:.3e}", stats.samples, stats.relative_stderr());
+    }
     if args.memory {
         let first = after_first.unwrap_or_default();
         let last = after_last;

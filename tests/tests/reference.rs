@@ -314,3 +314,28 @@ fn deterministic_for_a_seed() {
     assert_ne!(bits(&a), bits(&c), "different seeds, same image");
     gpu.shutdown().expect("clean teardown");
 }
+
+// The per-vertex path accumulates per vertex: constant environment over a tessellated plane.
+#[test]
+fn per_vertex_constant_environment() {
+    let gpu = engine_tests::gpu();
+    let (albedo, l) = (0.4f32, 2.5f32);
+    let mut scene = plane_scene(LatLongMap::constant(32, 16, [l; 3]), albedo);
+    scene.meshes[0] = demos::ground_plane(1.0, 16);
+    let settings =
+        RenderSettings { width: 32, height: 24, technique: "reference".into(), per_vertex: true, ..Default::default() };
+    let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
+    let options = ReferenceOptions { samples_per_frame: 64, seed: 2, ..Default::default() };
+    reference::reference_mut(&mut r).expect("reference").set_options(options).expect("options");
+    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 4096).expect("converge");
+    assert_eq!(stats.mean.len(), 17 * 17);
+    let expected: Vec<_> = stats.covered.iter().map(|c| c.then_some([(albedo * l) as f64; 3])).collect();
+    check(&stats, &expected, "per vertex");
+    assert!(report.converged, "{report:?}");
+    // The interpolated image shows the same value.
+    let img = r.read_radiance(&gpu).expect("readback");
+    let centre = ((12 * 32 + 16) * 4) as usize;
+    assert!((img[centre] - albedo * l).abs() < 0.05 * albedo * l, "{}", img[centre]);
+    r.destroy(&gpu);
+    gpu.shutdown().expect("clean teardown");
+}

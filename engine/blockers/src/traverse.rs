@@ -144,7 +144,7 @@ pub fn validate_nodes(nodes: &[GpuBvhNode], spheres: &[[f32; 4]], tol: f64) -> R
         if seen[v as usize] > 1 {
             return Err(format!("node {v} reached twice"));
         }
-        if !(node.radius >= 0.0) || !Vec3::from_array(node.center).is_finite() {
+        if node.radius.is_nan() || node.radius < 0.0 || !Vec3::from_array(node.center).is_finite() {
             return Err(format!("node {v} has a bad sphere {:?} r {}", node.center, node.radius));
         }
         if is_leaf(node) {
@@ -159,7 +159,8 @@ pub fn validate_nodes(nodes: &[GpuBvhNode], spheres: &[[f32; 4]], tol: f64) -> R
             let want = spheres[s];
             let shift =
                 Vec3::from_array(node.center).as_dvec3().distance(Vec3::new(want[0], want[1], want[2]).as_dvec3());
-            if !(shift + (node.radius as f64 - want[3] as f64).abs() <= tol) {
+            let error = shift + (node.radius as f64 - want[3] as f64).abs();
+            if error.is_nan() || error > tol {
                 return Err(format!("leaf {v} sphere {:?} r {} differs from input {want:?}", node.center, node.radius));
             }
         } else {
