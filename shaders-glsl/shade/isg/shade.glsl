@@ -12,6 +12,7 @@
 #include "../../common/bvh.glsl"
 
 layout(binding = 8) uniform sampler2D prefiltered_env;
+layout(binding = 13) uniform sampler2D irradiance_map;
 struct EnvLobe {
     vec4 axis_lambda;
     vec4 mu;
@@ -19,7 +20,7 @@ struct EnvLobe {
 layout(std430, binding = 9) readonly buffer EnvSgs { EnvLobe env_lobes[]; };
 layout(std430, binding = 10) readonly buffer IsgTable { float isg_table[]; };
 layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
-// ints: K, patches per side, evaluator (0 table, 1 paper), sphere count;
+// ints: K, patches per side, evaluator (bit 0: 0 table, 1 paper) | diffuse ratio (bit 1), sphere count;
 // floats: ln ε, node threshold (patch widths), cosine-SG λ, cosine-SG μ.
 layout(std430, binding = 12) readonly buffer IsgParams {
     uvec4 isg_ints;
@@ -38,7 +39,8 @@ float isg_full_integral(float lambda) {
 vec3 shade_point(ShadePoint sp) {
     IsgSettings st;
     st.side = int(isg_ints.y);
-    st.evaluator = int(isg_ints.z);
+    st.evaluator = int(isg_ints.z & 1u);
+    bool diffuse_ratio = (isg_ints.z & 2u) != 0u;
     st.log_epsilon = isg_floats.x;
     st.node_threshold = isg_floats.y;
     uint spheres = isg_ints.w;
@@ -65,6 +67,7 @@ vec3 shade_point(ShadePoint sp) {
         isg_gather(sp.position, n, n, ISG_HALF_PI, st.node_threshold * finest, spheres, blockers);
     }
     vec3 e = vec3(0.0);
+    vec3 e_full = vec3(0.0);
     for (uint k = 0u; k < k_count; ++k) {
         EnvLobe l = env_lobes[k];
         vec3 axis;
@@ -73,8 +76,19 @@ vec3 shade_point(ShadePoint sp) {
         // A full blocker list would lose occlusion: such points traverse per lobe instead.
         float occ = blockers.dropped == 0 ? isg_occlusion_of(blockers, axis, lambda, st)
                                           : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
-        float visible = max(exp(log_mu) * (isg_full_integral(lambda) - isg_normalization(lambda) * occ), 0.0);
+        float full = exp(log_mu) * isg_full_integral(lambda);
+        float visible = max(full - exp(log_mu) * isg_normalization(lambda) * occ, 0.0);
         e += l.mu.rgb * visible;
+        e_full += l.mu.rgb * full;
+    }
+    if (diffuse_ratio) {
+        // Exact irradiance times the lobes' visibility ratio (per channel; 1 where the fit is ~0).
+        vec3 irr = textureLod(irradiance_map, envmap_uv(n), 0.0).rgb;
+        vec3 ratio = vec3(1.0);
+        for (int c = 0; c < 3; ++c) {
+            if (e_full[c] > 1e-20) ratio[c] = clamp(e[c] / e_full[c], 0.0, 1.0);
+        }
+        e = irr * ratio;
     }
     vec3 result = sp.material.diffuse.rgb / PI * e;
 

@@ -14,7 +14,8 @@
 //! Options (`--technique isg:K=10,patches=16,eps=0.01,threshold=1,evaluator=table`):
 //! `K` environment lobes (1..32), `patches` per side P (P² patches, 1..32), `eps` the limiting-angle
 //! threshold ε, `threshold` the BVH node size (in patch widths) below which a node is taken whole,
-//! `evaluator` `table` (ours, engine-math IsgLut) or `paper` (the paper's sigmoid fit).
+//! `evaluator` `table` (ours, engine-math IsgLut) or `paper` (the paper's sigmoid fit), `diffuse`
+//! `ratio` (default: exact irradiance times the lobes' visibility ratio) or `sg` (the paper's Eq. 5).
 //!
 //! Not modelled: thin shells (triangles rasterized into patches, §5) and anisotropic BRDF lobes.
 //! [`cpu`] is the f64 twin of the whole per-point integral.
@@ -36,6 +37,18 @@ pub enum Evaluator {
     Paper,
 }
 
+/// How the diffuse term is formed from the K visible lobe integrals.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Diffuse {
+    /// ρ/π Σ_k μ_k ∫ G_k G_cos V (paper Eq. 5): carries the SG representation error of the lighting
+    /// and of the cosine (the L2-fitted cosine SG integrates to 1.083 π, not π).
+    Sg,
+    /// ρ/π E(n) · Σ_k μ_k ∫ G_k G_cos V / Σ_k μ_k ∫ G_k G_cos: the exact irradiance E(n) (the
+    /// irradiance map of technique `none`) times the lobes' visibility ratio, like the paper's Eq. 9
+    /// for specular. Unoccluded points equal `none` exactly.
+    Ratio,
+}
+
 /// The technique's parameters (see the module docs for their option names).
 #[derive(Clone, Debug, PartialEq)]
 pub struct IsgOptions {
@@ -44,11 +57,12 @@ pub struct IsgOptions {
     pub epsilon: f64,
     pub node_threshold: f64,
     pub evaluator: Evaluator,
+    pub diffuse: Diffuse,
 }
 
 impl Default for IsgOptions {
     fn default() -> Self {
-        Self { k: 10, side: 16, epsilon: 0.01, node_threshold: 1.0, evaluator: Evaluator::Table }
+        Self { k: 10, side: 16, epsilon: 0.01, node_threshold: 1.0, evaluator: Evaluator::Table, diffuse: Diffuse::Ratio }
     }
 }
 
@@ -90,9 +104,16 @@ impl IsgOptions {
                         _ => return Err(bad(k, v, "use table or paper")),
                     }
                 }
+                "diffuse" => {
+                    o.diffuse = match v.as_str() {
+                        "sg" => Diffuse::Sg,
+                        "ratio" => Diffuse::Ratio,
+                        _ => return Err(bad(k, v, "use ratio or sg")),
+                    }
+                }
                 _ => {
                     return Err(GpuError::Other(format!(
-                        "unknown isg option '{k}' (options: K, patches, eps, threshold, evaluator)"
+                        "unknown isg option '{k}' (options: K, patches, eps, threshold, evaluator, diffuse)"
                     )))
                 }
             }
@@ -108,7 +129,7 @@ const FIT_SIZE: (usize, usize) = (128, 64);
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuIsgParams {
-    /// K, patches per side, evaluator (0 table, 1 paper), sphere count.
+    /// K, patches per side, evaluator (0 table, 1 paper) | diffuse ratio (bit 1), sphere count.
     pub ints: [u32; 4],
     /// ln ε, node threshold, cosine-SG λ, cosine-SG μ.
     pub floats: [f32; 4],
@@ -124,6 +145,7 @@ pub struct GpuSgLobe {
 
 struct Prepared {
     prefiltered: Image,
+    irradiance: Image,
     env_sgs: Buffer,
     params: Buffer,
     tables: MathTables,
@@ -147,6 +169,7 @@ impl Isg {
     fn release(&mut self, gpu: &Gpu) {
         if let Some(p) = self.prepared.take() {
             gpu.destroy_image(p.prefiltered);
+            gpu.destroy_image(p.irradiance);
             gpu.destroy_buffer(p.env_sgs);
             gpu.destroy_buffer(p.params);
             p.tables.destroy(gpu);
@@ -175,11 +198,18 @@ impl Technique for Isg {
             .collect();
         let o = &self.options;
         let params = GpuIsgParams {
-            ints: [lobes.len() as u32, o.side as u32, (o.evaluator == Evaluator::Paper) as u32, scene.sphere_count],
+            ints: [lobes.len() as u32, o.side as u32, (o.evaluator == Evaluator::Paper) as u32 | ((o.diffuse == Diffuse::Ratio) as u32) << 1, scene.sphere_count],
             floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
         };
         // Build every piece; on failure free what was made.
         let prefiltered = super::none::prefiltered_atlas(gpu, "isg-prefiltered", &scene.environment_cpu)?;
+        let irradiance = match super::none::irradiance_image(gpu, "isg-irradiance", &scene.environment_cpu) {
+            Ok(i) => i,
+            Err(e) => {
+                gpu.destroy_image(prefiltered);
+                return Err(e);
+            }
+        };
         let mut made: Vec<Buffer> = Vec::new();
         let result = (|| -> Result<(Buffer, Buffer, MathTables)> {
             let sgs = gpu.upload_buffer("isg-env-sgs", BufferDesc::gpu_only(0), &lobes_or_one(&lobes))?;
@@ -194,11 +224,12 @@ impl Technique for Isg {
         })();
         match result {
             Ok((env_sgs, params, tables)) => {
-                self.prepared = Some(Prepared { prefiltered, env_sgs, params, tables });
+                self.prepared = Some(Prepared { prefiltered, irradiance, env_sgs, params, tables });
                 Ok(())
             }
             Err(e) => {
                 gpu.destroy_image(prefiltered);
+                gpu.destroy_image(irradiance);
                 for b in made {
                     gpu.destroy_buffer(b);
                 }
@@ -219,6 +250,7 @@ impl Technique for Isg {
             target,
             &[
                 Binding::sampled("prefiltered_env", &p.prefiltered),
+                Binding::sampled("irradiance_map", &p.irradiance),
                 Binding::buffer("EnvSgs", &p.env_sgs),
                 Binding::buffer("IsgTable", &lut.buffer),
                 Binding::buffer("BvhNodes", &inputs.scene.bvh_nodes),

@@ -22,6 +22,16 @@ impl NoShadows {
     }
 }
 
+/// The irradiance map E(n) (exact clamped-cosine convolution of the environment), RGBA32F.
+pub(crate) fn irradiance_image(gpu: &Gpu, name: &str, env: &engine_math::envmap::LatLongMap) -> Result<Image> {
+    let irr = irradiance_map(env, IRRADIANCE_SIZE.0, IRRADIANCE_SIZE.1);
+    gpu.upload_image(
+        name,
+        ImageDesc::texture(IRRADIANCE_SIZE.0 as u32, IRRADIANCE_SIZE.1 as u32, ImageFormat::Rgba32f),
+        &rgba32f_bytes(&irr.texels),
+    )
+}
+
 /// The SG-prefiltered environment maps Γ_L (ISG Eq. 10) at λ = 4^(k−1), k = 0..8, stacked
 /// vertically in one RGBA32F texture (read by `prefiltered_lookup` in shaders-glsl/shade/prefiltered.glsl).
 pub(crate) fn prefiltered_atlas(gpu: &Gpu, name: &str, env: &engine_math::envmap::LatLongMap) -> Result<Image> {
@@ -52,12 +62,7 @@ impl Technique for NoShadows {
             gpu.destroy_image(b);
         }
         let env = &scene.environment_cpu;
-        let irr = irradiance_map(env, IRRADIANCE_SIZE.0, IRRADIANCE_SIZE.1);
-        let irr_img = gpu.upload_image(
-            "none-irradiance",
-            ImageDesc::texture(IRRADIANCE_SIZE.0 as u32, IRRADIANCE_SIZE.1 as u32, ImageFormat::Rgba32f),
-            &rgba32f_bytes(&irr.texels),
-        )?;
+        let irr_img = irradiance_image(gpu, "none-irradiance", env)?;
         let pre = prefiltered_atlas(gpu, "none-prefiltered", env);
         match pre {
             Ok(pre) => {
