@@ -18,6 +18,34 @@ fn rgb(rgba: &[u8]) -> Vec<u8> {
     rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
 }
 
+/// Compare a tone-mapped render with `references/<name>.png` by FLIP mean (or write it when
+/// blessing); on failure write `<name>-actual.png` and `<name>-diff.png` beside it.
+fn check_against_reference(name: &str, w: u32, h: u32, ldr: &[u8], threshold: f32) {
+    let reference = references().join(format!("{name}.png"));
+    if std::env::var_os("ENGINE_BLESS").is_some() {
+        engine::output::write_png(&reference, w, h, ldr).expect("write reference");
+        eprintln!("blessed {}", reference.display());
+        return;
+    }
+    let (rw, rh, ref_rgba) = engine::output::read_png(&reference)
+        .unwrap_or_else(|e| panic!("missing reference image ({e}); run `cargo xtask bless` to create it"));
+    assert_eq!((rw, rh), (w, h), "reference size differs");
+    let test_img = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(ldr));
+    let ref_img = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(&ref_rgba));
+    let err = nv_flip::flip(ref_img, test_img, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mean = nv_flip::FlipPool::from_image(&err).mean();
+    eprintln!("{name}: FLIP mean {mean:.4} (threshold {threshold})");
+    if mean > threshold {
+        let actual = references().join(format!("{name}-actual.png"));
+        let diff = references().join(format!("{name}-diff.png"));
+        engine::output::write_png(&actual, w, h, ldr).ok();
+        let d = err.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+        let d: Vec<u8> = d.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+        engine::output::write_png(&diff, w, h, &d).ok();
+        panic!("{name}: FLIP mean {mean} > {threshold}; wrote {} and {}", actual.display(), diff.display());
+    }
+}
+
 #[test]
 fn default_scene_matches_reference() {
     let gpu = engine_tests::gpu();
@@ -26,29 +54,21 @@ fn default_scene_matches_reference() {
     let (hdr, ldr) = engine_tests::render(&gpu, &scene, RenderSettings { width: w, height: h, ..Default::default() });
     gpu.shutdown().expect("clean teardown");
     assert!(hdr.iter().all(|v| v.is_finite()), "non-finite pixel in the default scene");
+    check_against_reference("default", w, h, &ldr, FLIP_MEAN_THRESHOLD);
+}
 
-    let reference = references().join("default.png");
-    if std::env::var_os("ENGINE_BLESS").is_some() {
-        engine::output::write_png(&reference, w, h, &ldr).expect("write reference");
-        eprintln!("blessed {}", reference.display());
-        return;
-    }
-    let (rw, rh, ref_rgba) = engine::output::read_png(&reference)
-        .unwrap_or_else(|e| panic!("missing reference image ({e}); run `cargo xtask bless` to create it"));
-    assert_eq!((rw, rh), (w, h), "reference size differs");
-    let test_img = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(&ldr));
-    let ref_img = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(&ref_rgba));
-    let err = nv_flip::flip(ref_img, test_img, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    let mean = nv_flip::FlipPool::from_image(&err).mean();
-    if mean > FLIP_MEAN_THRESHOLD {
-        let actual = references().join("default-actual.png");
-        let diff = references().join("default-diff.png");
-        engine::output::write_png(&actual, w, h, &ldr).ok();
-        let d = err.apply_color_lut(&nv_flip::magma_lut()).to_vec();
-        let d: Vec<u8> = d.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
-        engine::output::write_png(&diff, w, h, &d).ok();
-        panic!("FLIP mean {mean} > {FLIP_MEAN_THRESHOLD}; wrote {} and {}", actual.display(), diff.display());
-    }
+// The bunny scene with technique `isg` (soft shadows, default settings). Same threshold and reason
+// as the default scene: a reference written on one driver, compared on another.
+#[test]
+fn isg_bunny_matches_reference() {
+    let gpu = engine_tests::gpu();
+    let scene = demos::bunny_scene(None).expect("default scene");
+    let (w, h) = (128, 96);
+    let settings = RenderSettings { width: w, height: h, technique: "isg".into(), ..Default::default() };
+    let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
+    gpu.shutdown().expect("clean teardown");
+    assert!(hdr.iter().all(|v| v.is_finite()), "non-finite pixel in the isg bunny");
+    check_against_reference("isg-bunny", w, h, &ldr, FLIP_MEAN_THRESHOLD);
 }
 
 #[test]

@@ -567,4 +567,47 @@ mod tests {
             assert!(rel < 0.05, "λ {lambda}: grid {occ} vs quadrature {exact} ({rel})");
         }
     }
+
+    /// Hard cases of the per-lobe occlusion: finite, in [0, F/H] (the whole lobe), and ordered.
+    #[test]
+    fn hard_cases() {
+        let lut = IsgLut::generate_default();
+        let o = IsgOptions::default();
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        let bound = |lambda: f64| 2.0 * PI * -(-2.0 * lambda).exp_m1() / lambda / engine_math::isg::isg_normalization(lambda);
+        let check = |v: f64, lambda: f64, what: &str| {
+            assert!(v.is_finite() && v >= 0.0 && v <= bound(lambda) * (1.0 + 1e-9), "{what}: {v} (λ {lambda})");
+            v
+        };
+        for lambda in [1e-4, 1e-2, 1.0, 100.0, 1e4, 1e5] {
+            // Receiver inside a sphere whose centre is in front: a tangent sphere covering the zenith.
+            let inside = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 0.3, 0.0), 1.0)], &lut);
+            check(inside, lambda, "inside, centre in front");
+            assert!(inside > 0.0, "inside a sphere in front: some occlusion (λ {lambda})");
+            // Receiver inside a sphere whose centre is behind the tangent plane: eliminated.
+            let behind = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, -0.3, 0.0), 1.0)], &lut);
+            assert_eq!(behind, 0.0, "centre behind T_p: eliminated");
+            // A blocker covering the whole cone: the whole grid is occluded (Ŝ over the grid ≤ 1).
+            let cover = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 1.0, 0.0), 0.999)], &lut);
+            check(cover, lambda, "covering");
+            // Straddling the tangent plane, off to the side; lobe axis below the horizon.
+            let straddle = Sphere::new(DVec3::new(1.0, 0.1, 0.0), 0.5);
+            check(occlusion(p, n, DVec3::new(1.0, -0.2, 0.0).normalize(), lambda, &o, &[straddle], &lut), lambda, "below");
+            // Hundreds of overlapping spheres: no more than the whole grid.
+            let many: Vec<Sphere> = (0..300)
+                .map(|i| {
+                    let t = i as f64 * 0.37;
+                    Sphere::new(DVec3::new(t.cos() * 0.5, 0.6 + 0.001 * i as f64, t.sin() * 0.5), 0.3)
+                })
+                .collect();
+            let all = check(occlusion(p, n, n, lambda, &o, &many, &lut), lambda, "many");
+            let one = occlusion(p, n, n, lambda, &o, &many[..1], &lut);
+            assert!(all >= one, "more blockers occlude no less");
+        }
+        // Zero-radius and coincident spheres block nothing / the same as one.
+        let s = Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.5);
+        assert_eq!(occlusion(p, n, n, 10.0, &o, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.0)], &lut), 0.0);
+        let once = occlusion(p, n, n, 10.0, &o, &[s], &lut);
+        assert_eq!(occlusion(p, n, n, 10.0, &o, &[s, s, s], &lut), once);
+    }
 }

@@ -1,0 +1,204 @@
+//! Technique `isg` on lavapipe: against `none` without blockers, against the closed form with one
+//! sphere blocker under a constant environment, against its f64 twin at G-buffer receivers, and on
+//! hard cases (hundreds of overlapping spheres).
+
+use engine::blockers::Sphere;
+use engine::gpu::Gpu;
+use engine::math::envmap::LatLongMap;
+use engine::math::isg::IsgLut;
+use engine::math::prefilter::resample;
+use engine::math::sg::fit_envmap_sgs;
+use engine::passes::shade::isg::{cpu, Diffuse, Evaluator, IsgOptions};
+use engine::renderer::{RenderSettings, Renderer};
+use engine::scene::Scene;
+use glam::{DVec3, Vec3};
+
+const W: u32 = 48;
+const H: u32 = 36;
+
+fn settings(technique: &str) -> RenderSettings {
+    RenderSettings { width: W, height: H, technique: technique.into(), ..Default::default() }
+}
+
+/// Render and also read back the G-buffer: (radiance, per pixel Some((position, normal, material))).
+#[allow(clippy::type_complexity)]
+fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, technique: &str) -> (Vec<f32>, Vec<Option<(DVec3, DVec3, usize)>>) {
+    let mut r = Renderer::new(gpu, scene, settings(technique)).expect("renderer");
+    r.render(gpu).expect("frame");
+    let hdr = r.read_radiance(gpu).expect("radiance");
+    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
+    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
+    r.destroy(gpu);
+    let g = (0..(W * H) as usize)
+        .map(|i| {
+            let p = &pos[4 * i..4 * i + 4];
+            let n = &nrm[4 * i..4 * i + 4];
+            (p[3] >= 0.5).then(|| {
+                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
+            })
+        })
+        .collect();
+    (hdr, g)
+}
+
+fn rgb(hdr: &[f32], i: usize) -> [f64; 3] {
+    [hdr[4 * i] as f64, hdr[4 * i + 1] as f64, hdr[4 * i + 2] as f64]
+}
+
+fn assert_finite(hdr: &[f32], what: &str) {
+    assert!(hdr.iter().all(|v| v.is_finite()), "{what}: non-finite pixel");
+}
+
+// Without blockers the visibility ratios are 1: `diffuse=ratio` (the default) is `none` up to f32
+// rounding; the paper's `diffuse=sg` differs by the SG representation of the lighting and the cosine
+// (stated bound below, measured on the sphere scene's smooth sky).
+#[test]
+fn no_blockers_equals_none() {
+    let gpu = engine_tests::gpu();
+    let scene = demos::sphere_scene(48);
+    let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
+    let (isg, _) = engine_tests::render(&gpu, &scene, settings("isg"));
+    let (isg_sg, _) = engine_tests::render(&gpu, &scene, settings("isg:diffuse=sg"));
+    gpu.shutdown().expect("clean teardown");
+    for (img, what) in [(&isg, "isg"), (&isg_sg, "isg sg")] {
+        assert_finite(img, what);
+    }
+    let all = |_| true;
+    let same = engine_tests::relative_rmse(&isg, &none, all);
+    assert!(same < 1e-5, "isg without blockers differs from none: relative RMSE {same}");
+    let sg = engine_tests::relative_rmse(&isg_sg, &none, all);
+    eprintln!("diffuse=sg vs none (representation error): relative RMSE {:.2} %", 100.0 * sg);
+    // The L2-fitted cosine SG integrates to 1.083 π; with the K = 10 fit of a smooth sky the
+    // measured difference is about 8 %: allow 15 %.
+    assert!(sg < 0.15, "diffuse=sg vs none: relative RMSE {sg}");
+}
+
+/// ∫_cap (n·ω)⁺ dω / π for a sphere (c, r) seen from p on a plane with normal +Y when the cap is
+/// wholly above the horizon: h r² / d³. None when the cap crosses the horizon.
+fn cap_cosine_fraction(p: DVec3, c: DVec3, r: f64) -> Option<f64> {
+    let d = c - p;
+    let dist = d.length();
+    let (alpha, beta) = ((r / dist).asin(), (d.y / dist).acos());
+    (alpha + beta <= std::f64::consts::FRAC_PI_2).then(|| d.y * r * r / (dist * dist * dist))
+}
+
+// One sphere blocker over a Lambertian plane under a constant environment L: the plane shades to
+// ρL (1 − h r²/d³). The error comes from the cosine SG (the lobes' ratio weights the cap by the SG
+// shape instead of the exact cosine), the patch grid (16 × 16: the cap is a set of patch centres) and
+// the sphere set being the sphere itself; the thresholds below are the measured errors with margin.
+#[test]
+fn one_sphere_blocker_constant_environment() {
+    let gpu = engine_tests::gpu();
+    let (albedo, l) = (0.6f32, 1.5f32);
+    let (c, r) = (Vec3::new(0.0, 0.8, 0.0), 0.5f32);
+    let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
+    let (hdr, g) = render_with_gbuffer(&gpu, &scene, "isg");
+    gpu.shutdown().expect("clean teardown");
+    assert_finite(&hdr, "isg");
+    let rho_l = (albedo * l) as f64;
+    let (mut sum2, mut ref2, mut worst, mut count, mut shadowed) = (0.0, 0.0, 0.0f64, 0, 0);
+    for (i, px) in g.iter().enumerate() {
+        let Some((p, _, 0)) = *px else { continue };
+        let Some(f) = cap_cosine_fraction(p, c.as_dvec3(), r as f64) else { continue };
+        let expected = rho_l * (1.0 - f);
+        let got = rgb(&hdr, i)[1];
+        sum2 += (got - expected).powi(2);
+        ref2 += expected * expected;
+        worst = worst.max((got - expected).abs() / rho_l);
+        count += 1;
+        shadowed += (f > 0.1) as usize;
+    }
+    let rmse = (sum2 / ref2).sqrt();
+    eprintln!("one sphere, constant environment: {count} pixels ({shadowed} shadowed > 10 %), relative RMSE {:.2} %, max error {:.2} % of ρL", 100.0 * rmse, 100.0 * worst);
+    assert!(shadowed > 50, "only {shadowed} pixels in noticeable shadow");
+    assert!(rmse < 0.03, "relative RMSE {rmse}");
+    assert!(worst < 0.10, "max error {worst} of ρL");
+}
+
+// The GPU pass against the f64 twin of the whole per-point integral at the G-buffer's receivers:
+// diffuse=sg (the twin's sum of visible lobe integrals), every BVH node opened (threshold 0), both
+// evaluators. f32 differences in the patch-centre tests can flip a patch on a cap boundary, so the
+// bound is on the 95th percentile (2e-3 relative) and the maximum (5 %).
+#[test]
+fn gpu_matches_the_f64_twin() {
+    let gpu = engine_tests::gpu();
+    let sky = demos::sphere_scene(2).environment;
+    let (c, r) = (Vec3::new(0.2, 0.6, -0.1), 0.45f32);
+    let scene = demos::sphere_over_plane(sky.clone(), 0.7, c, r);
+    let lut = IsgLut::generate_default();
+    let (fits, _) = fit_envmap_sgs(&resample(&sky, 128, 64), 10);
+    // The GPU reads the lobes as f32.
+    let lobes: Vec<_> = fits[9]
+        .iter()
+        .map(|l| {
+            let mut l = *l;
+            l.axis = l.axis.map(|x| x as f32 as f64);
+            l.lambda = l.lambda as f32 as f64;
+            l.mu = l.mu.map(|x| x as f32 as f64);
+            l
+        })
+        .collect();
+    let spheres = [Sphere::new(c.as_dvec3(), r as f64)];
+    for (spec, evaluator) in
+        [("isg:diffuse=sg,threshold=0", Evaluator::Table), ("isg:diffuse=sg,threshold=0,evaluator=paper", Evaluator::Paper)]
+    {
+        let (hdr, g) = render_with_gbuffer(&gpu, &scene, spec);
+        assert_finite(&hdr, spec);
+        let o = IsgOptions { evaluator, diffuse: Diffuse::Sg, node_threshold: 0.0, ..IsgOptions::default() };
+        let mut errs = Vec::new();
+        for (i, px) in g.iter().enumerate().step_by(7) {
+            let Some((p, n, 0)) = *px else { continue };
+            let pt = cpu::Point { position: p, normal: n, view: DVec3::Y, diffuse: [0.7; 3], specular: [0.0; 3], shininess: 1.0 };
+            let (want, _) = cpu::shade_diffuse_and_ratio(&pt, &lobes, &o, &spheres, &lut);
+            let got = rgb(&hdr, i);
+            for ch in 0..3 {
+                errs.push((got[ch] - want[ch]).abs() / want[ch].abs().max(1e-3));
+            }
+        }
+        errs.sort_by(f64::total_cmp);
+        let (p95, max) = (errs[errs.len() * 95 / 100], errs[errs.len() - 1]);
+        eprintln!("{spec}: {} samples, 95th percentile {p95:.2e}, max {max:.2e}", errs.len());
+        assert!(errs.len() > 300, "too few receivers");
+        assert!(p95 < 2e-3 && max < 0.05, "{spec}: GPU vs twin relative error p95 {p95}, max {max}");
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
+// Hard cases on the GPU: hundreds of overlapping spheres (many receivers inside them, spheres
+// straddling the plane, whole-cone blockers), sharp and broad lobes. Every pixel finite, in
+// [0, unshadowed], and the covered region darkened.
+#[test]
+fn hundreds_of_overlapping_spheres() {
+    let gpu = engine_tests::gpu();
+    let sky = demos::sphere_scene(2).environment;
+    let mut scene = demos::sphere_over_plane(sky, 0.7, Vec3::new(0.0, 0.3, 0.0), 0.6);
+    let mut rng = engine::math::rng::Pcg32::new(7, 3);
+    let spheres: Vec<Sphere> = (0..300)
+        .map(|_| {
+            let u = |rng: &mut engine::math::rng::Pcg32| rng.next_f64() * 2.0 - 1.0;
+            let centre = DVec3::new(u(&mut rng), u(&mut rng), u(&mut rng)) * 0.9;
+            Sphere::new(centre, 0.05 + 0.4 * rng.next_f64())
+        })
+        .collect();
+    scene.blockers.spheres[1] = Some(spheres);
+    let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
+    for spec in ["isg", "isg:evaluator=paper,patches=32", "isg:patches=1,eps=0.5"] {
+        let (img, _) = engine_tests::render(&gpu, &scene, settings(spec));
+        assert_finite(&img, spec);
+        let mut darker = 0;
+        for i in 0..(W * H) as usize {
+            let (a, b) = (rgb(&img, i), rgb(&none, i));
+            for ch in 0..3 {
+                assert!(a[ch] >= 0.0 && a[ch] <= b[ch] * 1.0001 + 1e-6, "{spec}: pixel {i} {a:?} vs unshadowed {b:?}");
+            }
+            darker += (a[1] < 0.9 * b[1]) as usize;
+        }
+        eprintln!("{spec}: {darker} pixels darkened by more than 10 %");
+        // The paper's fit is poor for the broad lobes of diffuse shading (max error 0.59 at λ = 1),
+        // so it darkens less; the bound only checks that shadows are there at all.
+        let least = if spec.contains("paper") { 30 } else { 100 };
+        assert!(darker > least, "{spec}: only {darker} pixels darkened");
+    }
+    gpu.shutdown().expect("clean teardown");
+}
