@@ -190,6 +190,24 @@ fn sphere_blocker_over_a_plane() {
     let unoccluded: Vec<_> = expected.iter().map(|e| e.map(|_| [rho_l; 3])).collect();
     check(&stats, &unoccluded, "sphere blocker, visibility off");
     r.destroy(&gpu);
+
+    // Sphere-proxy visibility with the exact sphere as the mesh's one blocker: the closed form
+    // itself, with no tessellation bracket.
+    let mut scene = scene;
+    let unit = engine::blockers::Sphere { center: glam::DVec3::ZERO, radius: 1.0 };
+    scene.blockers.spheres = vec![None, Some(vec![unit])];
+    let mut r = renderer(&gpu, &scene, w, h, ReferenceOptions { visibility: Visibility::Spheres, ..options });
+    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    let exact: Vec<_> = g
+        .iter()
+        .map(|px| {
+            let (p, mat) = (*px)?;
+            (mat == 0).then(|| [rho_l * (1.0 - cap_cosine_fraction(p, SPHERE_CENTRE, SPHERE_RADIUS)); 3])
+        })
+        .collect();
+    check(&stats, &exact, "sphere blocker, sphere proxies");
+    assert!(report.converged, "{report:?}");
+    r.destroy(&gpu);
     gpu.shutdown().expect("clean teardown");
 }
 

@@ -20,12 +20,12 @@ layout(push_constant) uniform Params {
     uint light_count;
     uint env_width;
     uint env_height;
-    uint visibility;   // 0 triangles, 1 none (unoccluded)
+    uint visibility;   // 0 triangles, 1 none (unoccluded), 2 blocker spheres
     uint item_count;
     float ray_offset;  // world units, along the normal
     float env_total;   // 0: the environment is black (no environment sampling)
+    uint sphere_count;
     float pad0;
-    float pad1;
 } params;
 
 // Welford accumulation per item: mean.rgb (w = 1 on covered items), m2.rgb = Σ (x − mean)².
@@ -199,11 +199,13 @@ float light_hit(uint j, vec3 p, vec3 d) {
 
 float visible_until(vec3 o, vec3 d, float t_max) {
     if (params.visibility == 1u) return t_max;
+    if (params.visibility == 2u) return trace_spheres(o, d, t_max, params.sphere_count, false);
     return trace_triangles(o, d, t_max, false);
 }
 
 bool unoccluded(vec3 o, vec3 d, float t_max) {
     if (params.visibility == 1u) return true;
+    if (params.visibility == 2u) return trace_spheres(o, d, t_max, params.sphere_count, true) >= t_max;
     return trace_triangles(o, d, t_max, true) >= t_max;
 }
 

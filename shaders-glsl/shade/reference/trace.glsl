@@ -98,4 +98,44 @@ float trace_triangles(vec3 o, vec3 d, float t_max, bool any_hit) {
     return best;
 }
 
+// ---- sphere proxies: the blocker spheres and their BVH (written every frame by the blocker passes) ----
+#include "../../common/bvh.glsl"
+layout(std430, binding = 14) readonly buffer BlockerSpheres { vec4 blocker_spheres[]; };
+layout(std430, binding = 15) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+
+// Entry and exit distances of the ray into sphere s (entry > exit when it misses).
+vec2 ray_sphere(vec3 o, vec3 d, vec4 s) {
+    vec3 oc = s.xyz - o;
+    float b = dot(d, oc);
+    // |oc|² − b² is the squared distance of the centre from the ray (non-negative by construction).
+    vec3 perp = oc - b * d;
+    float disc = s.w * s.w - dot(perp, perp);
+    if (disc < 0.0) return vec2(1.0, -1.0);
+    float q = sqrt(disc);
+    return vec2(b - q, b + q);
+}
+
+// Nearest entry distance in (0, t_max) into a blocker sphere, or t_max. A sphere that contains the
+// origin does not block (receivers on a proxied surface lie inside its spheres): only spheres the
+// ray enters in front of the point count. Overflow of the node stack takes the node's bounding
+// sphere whole (conservative, as in bvh.glsl); with the LBVH's depth bound it never happens.
+float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit) {
+    float best = t_max;
+    BvhCursor c = bvh_cursor_begin(sphere_count);
+    uint node;
+    while (bvh_cursor_next(c, node)) {
+        BvhNode n = bvh_nodes[node];
+        bool leaf = bvh_is_leaf(n);
+        vec4 s = leaf ? blocker_spheres[n.sphere] : bvh_sphere(n);
+        vec2 t = ray_sphere(o, d, s);
+        if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
+        if (!leaf && bvh_cursor_push_children(c, n.left, n.right)) continue;
+        if (t.x > 0.0) {
+            best = t.x;
+            if (any_hit) return best;
+        }
+    }
+    return best;
+}
+
 #endif

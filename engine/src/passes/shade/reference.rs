@@ -35,7 +35,8 @@ pub struct ReferenceParams {
     pub item_count: u32,
     pub ray_offset: f32,
     pub env_total: f32,
-    pub pad: [f32; 2],
+    pub sphere_count: u32,
+    pub pad: f32,
 }
 
 /// `SphereLightGpu` in integrate.glsl.
@@ -53,6 +54,10 @@ pub enum Visibility {
     Triangles,
     /// Nothing (unshadowed lighting, for the decomposition of error and closed-form checks).
     Unoccluded,
+    /// The blocker spheres (`GpuScene::spheres` through `GpuScene::bvh_nodes`): the sphere-proxy
+    /// ground truth. Spheres containing the shading point do not block it (receivers on a proxied
+    /// surface lie inside its spheres); every sphere the ray enters in front of the point does.
+    Spheres,
 }
 
 /// Controls of the reference. Changing them restarts accumulation.
@@ -488,11 +493,13 @@ impl Technique for Reference {
             visibility: match self.options.visibility {
                 Visibility::Triangles => 0,
                 Visibility::Unoccluded => 1,
+                Visibility::Spheres => 2,
             },
             item_count: items,
             ray_offset: self.options.ray_offset * t.scene_diagonal,
             env_total: t.env_total,
-            pad: [0.0; 2],
+            sphere_count: s.sphere_count,
+            pad: 0.0,
         };
         let pixel = self.pixel_accum.borrow();
         let accum = match target {
@@ -513,6 +520,8 @@ impl Technique for Reference {
             Binding::buffer("Tris", &t.triangles),
             Binding::buffer("Lights", &t.lights),
             Binding::buffer("Diagnostics", &t.diagnostics),
+            Binding::buffer("BlockerSpheres", &s.spheres),
+            Binding::buffer("BvhNodes", &s.bvh_nodes),
         ];
         rec.begin_pass(name);
         let push = bytemuck::bytes_of(&params);
@@ -622,6 +631,7 @@ mod tests {
         assert_eq!(size_of::<ReferenceParams>(), 48);
         assert_eq!(offset_of!(ReferenceParams, ray_offset), 32);
         assert_eq!(offset_of!(ReferenceParams, env_total), 36);
+        assert_eq!(offset_of!(ReferenceParams, sphere_count), 40);
         assert_eq!(size_of::<GpuSphereLight>(), 32);
         assert_eq!(offset_of!(GpuSphereLight, radiance), 16);
     }
