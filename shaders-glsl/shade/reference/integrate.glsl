@@ -221,6 +221,8 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     vec3 n = sp.normal;
     vec3 v = sp.view;
     vec3 o = sp.position + params.ray_offset * n;
+    g_receiver_p = sp.position;
+    g_receiver_n = n;
     float p_spec = specular_choice(m);
     const float inf = 1e30;  // "no hit" distance (finite: no inf arithmetic in traversal)
     float nl_count = float(params.light_count);

@@ -115,10 +115,18 @@ vec2 ray_sphere(vec3 o, vec3 d, vec4 s) {
     return vec2(b - q, b + q);
 }
 
-// Nearest entry distance in (0, t_max) into a blocker sphere, or t_max. A sphere that contains the
-// origin does not block (receivers on a proxied surface lie inside its spheres): only spheres the
-// ray enters in front of the point count. Overflow of the node stack takes the node's bounding
-// sphere whole (conservative, as in bvh.glsl); with the LBVH's depth bound it never happens.
+// The receiver the current sample belongs to (set by the integrator before tracing): the sphere proxy
+// seen from it is the blocker set after the SHEXP §6.2 self-shadowing rules (blocker_for_receiver in
+// spheres.glsl), the same proxy the techniques see.
+vec3 g_receiver_p = vec3(0.0);
+vec3 g_receiver_n = vec3(0.0, 1.0, 0.0);
+
+// Nearest entry distance in (0, t_max) into a blocker sphere, or t_max. Each leaf sphere is first
+// replaced by its blocker for the receiver (eliminated behind the tangent plane, shrunk to tangency
+// when the receiver is inside, the tangent sphere in front when it straddles); the replacement lies
+// inside the original, so the BVH's bounds stay conservative. Only spheres the ray enters in front of
+// the origin count. Overflow of the node stack takes the node's bounding sphere whole (conservative, as
+// in bvh.glsl); with the LBVH's depth bound it never happens.
 float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit) {
     float best = t_max;
     BvhCursor c = bvh_cursor_begin(sphere_count);
@@ -130,6 +138,12 @@ float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit
         vec2 t = ray_sphere(o, d, s);
         if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
         if (!leaf && bvh_cursor_push_children(c, n.left, n.right)) continue;
+        if (leaf) {
+            vec4 blk;
+            if (!blocker_for_receiver(g_receiver_p, g_receiver_n, s, blk) || blk.w <= 0.0) continue;
+            t = ray_sphere(o, d, blk);
+            if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
+        }
         if (t.x > 0.0) {
             best = t.x;
             if (any_hit) return best;

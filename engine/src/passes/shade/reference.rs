@@ -55,8 +55,11 @@ pub enum Visibility {
     /// Nothing (unshadowed lighting, for the decomposition of error and closed-form checks).
     Unoccluded,
     /// The blocker spheres (`GpuScene::spheres` through `GpuScene::bvh_nodes`): the sphere-proxy
-    /// ground truth. Spheres containing the shading point do not block it (receivers on a proxied
-    /// surface lie inside its spheres); every sphere the ray enters in front of the point does.
+    /// ground truth. Each sphere is seen from the shading point after the SHEXP §6.2 self-shadowing
+    /// rules (`engine::blockers::geom::blocker_for_receiver`: eliminated behind the tangent plane,
+    /// shrunk to tangency when the point is inside, the tangent sphere in front when it straddles),
+    /// exactly the proxy the techniques see; every such sphere the ray enters in front of the point
+    /// blocks.
     Spheres,
 }
 
