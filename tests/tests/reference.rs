@@ -357,3 +357,55 @@ fn per_vertex_constant_environment() {
     r.destroy(&gpu);
     gpu.shutdown().expect("clean teardown");
 }
+
+// On demand (`cargo test -p engine-tests --test reference -- --ignored --nocapture`): the proxy
+// error of the bunny scene, reference with the 64 blocker spheres against reference with the
+// triangles (SHEXP Fig. 7's first term), with each reference's own standard error, the FLIP
+// mean of the tone-mapped pair and an error heat map in out/reference/.
+#[test]
+#[ignore = "measurement, minutes on lavapipe"]
+fn bunny_proxy_error() {
+    let gpu = engine_tests::gpu();
+    let scene = demos::bunny_scene(None).expect("bunny scene");
+    let (w, h) = (64, 48);
+    let target = 1.5e-2;
+    let run = |visibility| {
+        let options = ReferenceOptions { samples_per_frame: 64, seed: 1, visibility, ..Default::default() };
+        let mut r = renderer(&gpu, &scene, w, h, options);
+        let t0 = std::time::Instant::now();
+        let (report, stats) = reference::converge(&gpu, &mut r, target, 8192).expect("converge");
+        let secs = t0.elapsed().as_secs_f64();
+        let img = r.read_radiance(&gpu).expect("readback");
+        let ldr = r.read_ldr(&gpu).expect("readback");
+        let materials: Vec<Option<usize>> = gbuffer(&gpu, &r).iter().map(|p| p.map(|(_, m)| m)).collect();
+        r.destroy(&gpu);
+        eprintln!("{visibility:?}: {report:?} in {secs:.1} s");
+        (stats, img, ldr, materials)
+    };
+    let (tri, tri_img, tri_ldr, materials) = run(Visibility::Triangles);
+    let (sph, sph_img, sph_ldr, _) = run(Visibility::Spheres);
+    // Split by receiver: the bunny (material 0, self-shadowing by its own spheres) and the ground (1).
+    for (name, id) in [("bunny", 0), ("ground", 1)] {
+        let m: Vec<bool> = materials.iter().map(|x| *x == Some(id)).collect();
+        let e = engine::metrics::relative_rmse_percent(&sph_img, &tri_img, &m);
+        eprintln!("proxy error on the {name}: relative RMSE {e:.2} % over {} pixels", m.iter().filter(|x| **x).count());
+    }
+    gpu.shutdown().expect("clean teardown");
+    let mask = &tri.covered;
+    let rmse = engine::metrics::relative_rmse_percent(&sph_img, &tri_img, mask);
+    let max = engine::metrics::max_error(&sph_img, &tri_img, mask);
+    let flip = engine::metrics::flip_mean(&sph_ldr, &tri_ldr, w, h, Some(mask));
+    // The noise floor of the comparison: both references' standard errors combined.
+    let floor = 100.0 * (tri.relative_stderr().powi(2) + sph.relative_stderr().powi(2)).sqrt();
+    eprintln!(
+        "bunny proxy error ({w}x{h}): relative RMSE {rmse:.2} % (noise floor {floor:.2} %), max {:.4} at pixel {} (reference {:.4}), FLIP mean {flip:.4}",
+        max.abs, max.pixel, max.reference
+    );
+    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../out/reference");
+    std::fs::create_dir_all(&dir).expect("out dir");
+    engine::output::write_png(&dir.join("bunny-triangles.png"), w, h, &tri_ldr).expect("png");
+    engine::output::write_png(&dir.join("bunny-spheres.png"), w, h, &sph_ldr).expect("png");
+    engine::metrics::write_error_heatmap(&dir.join("bunny-proxy-error.png"), &sph_img, &tri_img, mask, w, h, 0.1)
+        .expect("heat map");
+    assert!(rmse > floor, "the proxy error is below the references' noise");
+}
