@@ -23,6 +23,9 @@ struct Args {
     /// Also fit 64 spheres to the bunny and report time and E.
     #[arg(long)]
     fit: bool,
+    /// Write the build-time curve (log-log, with a linear reference line) as an SVG plot here.
+    #[arg(long, default_value = "out/bvh_build.svg")]
+    plot: std::path::PathBuf,
 }
 
 fn main() {
@@ -35,10 +38,12 @@ fn main() {
 fn run(args: Args) -> anyhow::Result<()> {
     let gpu = Gpu::new(&GpuDesc::default())?;
     println!("device: {}", gpu.info.name);
+    let gpu_name = gpu.info.name.clone();
     println!("| spheres | build ms (median of {}) | ns per sphere |", args.frames);
     println!("|---|---|---|");
     let mut rng = Pcg32::new(42, 1);
     let mut n = 64;
+    let mut curve: Vec<(f64, f64)> = Vec::new();
     let result = (|| -> anyhow::Result<()> {
         while n <= args.max {
             let spheres: Vec<[f32; 4]> = (0..n)
@@ -62,6 +67,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             times.sort_by(f64::total_cmp);
             let median = times[times.len() / 2];
             println!("| {n} | {median:.3} | {:.1} |", median * 1e6 / n as f64);
+            curve.push((n as f64, median));
             gpu.destroy_frame(frame);
             gpu.destroy_buffer(sb);
             gpu.destroy_buffer(nb);
@@ -72,6 +78,21 @@ fn run(args: Args) -> anyhow::Result<()> {
     })();
     gpu.shutdown()?;
     result?;
+    if let Some(&(n_last, ms_last)) = curve.last() {
+        // Linear growth through the largest measurement, for comparison.
+        let linear: Vec<(f64, f64)> = curve.iter().map(|&(n, _)| (n, ms_last * n / n_last)).collect();
+        if let Some(dir) = args.plot.parent() {
+            std::fs::create_dir_all(dir)?;
+        }
+        plot::Plot::new(format!("GPU blocker-BVH build time ({})", gpu_name))
+            .x_axis("spheres", plot::Scale::Log10)
+            .y_axis("build time (ms, median)", plot::Scale::Log10)
+            .line("measured", curve.clone())
+            .series(plot::Series::new("linear in n", linear, plot::Style::Line).dashed())
+            .legend(plot::Legend::TopLeft)
+            .write(&args.plot)?;
+        println!("wrote {}", args.plot.display());
+    }
     if args.fit {
         let path = demos::assets_dir().join("meshes/bunny.obj");
         let mesh = engine::scene::load_obj(&path)?;
