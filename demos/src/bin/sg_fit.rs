@@ -1,0 +1,66 @@
+//! `sg_fit`: relative L2 error of the greedy K-lobe SG fit of environment maps, K = 1..=32, at the
+//! resolution technique `isg` fits (128×64), as a table and an SVG plot.
+//!
+//! `cargo run --release -p demos --bin sg_fit [-- --env assets/envmaps/sunset.exr --plot out/sg_fit.svg]`
+
+use anyhow::Context;
+use clap::Parser;
+use engine::math::prefilter::resample;
+use engine::math::sg::fit_envmap_sgs;
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(about = "SG fit error of environment maps against the number of lobes K")]
+struct Args {
+    /// Environment maps (default: the project's courtyard.exr and sunset.exr).
+    #[arg(long)]
+    env: Vec<PathBuf>,
+    /// Largest K.
+    #[arg(long, default_value_t = 32)]
+    k_max: usize,
+    #[arg(long, default_value = "out/sg_fit.svg")]
+    plot: PathBuf,
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> anyhow::Result<()> {
+    let args = Args::parse();
+    let envs = if args.env.is_empty() {
+        let dir = demos::assets_dir().join("envmaps");
+        vec![dir.join("courtyard.exr"), dir.join("sunset.exr")]
+    } else {
+        args.env.clone()
+    };
+    let mut plot = plot::Plot::new("Greedy SG fit of the environment (128×64)")
+        .x_axis("lobes K", plot::Scale::Linear)
+        .y_axis("relative L2 error", plot::Scale::Log10);
+    let mut curves = Vec::new();
+    for path in &envs {
+        let env = engine::scene::load_environment(path)?;
+        let t0 = std::time::Instant::now();
+        let (_, errors) = fit_envmap_sgs(&resample(&env, 128, 64), args.k_max);
+        eprintln!("{}: fitted K = 1..{} in {:.1} s", path.display(), args.k_max, t0.elapsed().as_secs_f64());
+        let name = path.file_stem().and_then(|s| s.to_str()).context("file name")?.to_string();
+        plot = plot.line(name.clone(), errors.iter().enumerate().map(|(k, e)| ((k + 1) as f64, *e)).collect());
+        curves.push((name, errors));
+    }
+    let header: Vec<&str> = curves.iter().map(|(n, _)| n.as_str()).collect();
+    println!("| K | {} |", header.join(" | "));
+    println!("|---|{}", "---|".repeat(curves.len()));
+    for k in [1, 2, 4, 8, 10, 16, 20, 24, 32].into_iter().filter(|&k| k <= args.k_max) {
+        let row: Vec<String> = curves.iter().map(|(_, e)| format!("{:.3}", e[k - 1])).collect();
+        println!("| {k} | {} |", row.join(" | "));
+    }
+    if let Some(dir) = args.plot.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    plot.write(&args.plot)?;
+    println!("wrote {}", args.plot.display());
+    Ok(())
+}
