@@ -6,7 +6,7 @@
 use anyhow::Context;
 use clap::Parser;
 use engine::math::prefilter::resample;
-use engine::math::sg::fit_envmap_sgs;
+use engine::math::sg::{fit_envmap_sgs, refine_envmap_sgs};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -21,6 +21,9 @@ struct Args {
     #[arg(long, default_value = "out/sg_fit.svg")]
     plot: PathBuf,
 }
+
+const ROWS: [usize; 8] = [1, 2, 4, 8, 10, 16, 20, 32];
+const REFINE_ROUNDS: usize = engine::passes::shade::isg::REFINE_ROUNDS;
 
 fn main() {
     if let Err(e) = run() {
@@ -40,21 +43,32 @@ fn run() -> anyhow::Result<()> {
     let mut plot = plot::Plot::new("Greedy SG fit of the environment (128×64)")
         .x_axis("lobes K", plot::Scale::Linear)
         .y_axis("relative L2 error", plot::Scale::Log10);
-    let mut curves = Vec::new();
+    let mut curves: Vec<(String, Vec<f64>)> = Vec::new();
     for path in &envs {
         let env = engine::scene::load_environment(path)?;
         let t0 = std::time::Instant::now();
-        let (_, errors) = fit_envmap_sgs(&resample(&env, 128, 64), args.k_max);
+        let small = resample(&env, 128, 64);
+        let (fits, errors) = fit_envmap_sgs(&small, args.k_max);
         eprintln!("{}: fitted K = 1..{} in {:.1} s", path.display(), args.k_max, t0.elapsed().as_secs_f64());
         let name = path.file_stem().and_then(|s| s.to_str()).context("file name")?.to_string();
-        plot = plot.line(name.clone(), errors.iter().enumerate().map(|(k, e)| ((k + 1) as f64, *e)).collect());
-        curves.push((name, errors));
+        plot = plot.line(format!("{name} greedy"), errors.iter().enumerate().map(|(k, e)| ((k + 1) as f64, *e)).collect());
+        // The refined fit (what `isg` uses) at the K of the table.
+        let t0 = std::time::Instant::now();
+        let refined: Vec<(f64, f64)> = ROWS
+            .iter()
+            .filter(|&&k| k <= args.k_max)
+            .map(|&k| (k as f64, refine_envmap_sgs(&small, &fits[k - 1], REFINE_ROUNDS).1))
+            .collect();
+        eprintln!("{}: refined in {:.1} s", path.display(), t0.elapsed().as_secs_f64());
+        plot = plot.series(plot::Series::new(format!("{name} refined"), refined.clone(), plot::Style::LineMarkers).dashed());
+        curves.push((format!("{name} greedy"), ROWS.iter().filter(|&&k| k <= args.k_max).map(|&k| errors[k - 1]).collect::<Vec<f64>>()));
+        curves.push((format!("{name} refined"), refined.iter().map(|r| r.1).collect()));
     }
     let header: Vec<&str> = curves.iter().map(|(n, _)| n.as_str()).collect();
     println!("| K | {} |", header.join(" | "));
     println!("|---|{}", "---|".repeat(curves.len()));
-    for k in [1, 2, 4, 8, 10, 16, 20, 24, 32].into_iter().filter(|&k| k <= args.k_max) {
-        let row: Vec<String> = curves.iter().map(|(_, e)| format!("{:.3}", e[k - 1])).collect();
+    for (r, k) in ROWS.iter().filter(|&&k| k <= args.k_max).enumerate() {
+        let row: Vec<String> = curves.iter().map(|(_, e)| format!("{:.3}", e[r])).collect();
         println!("| {k} | {} |", row.join(" | "));
     }
     if let Some(dir) = args.plot.parent() {

@@ -122,6 +122,9 @@ impl IsgOptions {
     }
 }
 
+/// Coordinate-descent rounds refining the greedy environment fit (engine-math `refine_envmap_sgs`).
+pub const REFINE_ROUNDS: usize = 6;
+
 /// Resolution at which the environment is fitted with SGs (fit cost grows with texels × K).
 const FIT_SIZE: (usize, usize) = (128, 64);
 
