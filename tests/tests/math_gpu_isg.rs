@@ -131,35 +131,54 @@ fn isg_twin_matches_cpu() {
     gpu.shutdown().expect("clean teardown");
 }
 
-/// Cost of the ISG evaluators on the device, f32 (shaders-glsl/tests/isg_cost.comp): 2²⁰ seeded
-/// random queries per evaluator (λ log-uniform in [1e-2, 1e5], as the CPU benchmark
-/// engine/math/benches/math.rs), timed by GPU timestamps, best of 7 dispatches, less the time of
-/// generating the queries alone. A measurement for the README, not a check (no timing is
+/// Cost of the ISG evaluators on the device, f32 (shaders-glsl/tests/isg_cost.comp): 2²² seeded
+/// queries per evaluator (λ log-uniform in [1e-2, 1e5], as the CPU benchmark
+/// engine/math/benches/math.rs), timed by GPU timestamps, best of 11 dispatches, less the time of
+/// generating the queries alone. Two diagnostics of ours: table reads replaced by arithmetic (the
+/// cost of everything but the reads), and the vec4 entries read as 4 scalar floats. A measurement for the README, not a check (no timing is
 /// asserted): `cargo test -p engine-tests --test math_gpu_isg -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn isg_gpu_cost() {
     use engine::gpu::{Binding, BufferDesc};
-    const PER: u32 = 8;
-    const QUERIES: u32 = 1 << 20;
+    const PER: u32 = 32;
+    const ROUNDS: usize = 11;
+    const QUERIES: u32 = 1 << 22;
     let gpu = test_gpu().expect("GPU");
     let lut = IsgLut::generate_default();
     let table = gpu.upload_buffer("isg-cost-table", BufferDesc::gpu_only(4), &lut.values).expect("table");
     let out = gpu.create_buffer("isg-cost-out", BufferDesc::gpu_only((QUERIES / PER * 4) as u64)).expect("out");
     let mut frame = gpu.create_frame().expect("frame");
-    let names = ["queries only", "paper Ŝ", "ours Ŝ", "paper patch", "ours patch"];
+    let names = [
+        "queries only",
+        "paper Ŝ",
+        "ours Ŝ",
+        "paper patch",
+        "ours patch",
+        "ours Ŝ, no reads",
+        "ours patch, no reads",
+        "ours Ŝ, scalar reads",
+        "ours patch, scalar reads",
+    ];
     let count = QUERIES / PER;
     let pipes: Vec<_> = (0..names.len())
         .map(|k| {
-            let eval = k.to_string();
-            gpu.create_compute_pipeline("tests/isg_cost.comp", &[("ISG_COST_EVAL", &eval), ("ISG_COST_PER", "8")])
-                .expect("pipeline")
+            // The last two: ours with the table reads replaced by arithmetic (what the reads cost).
+            let eval = [0, 1, 2, 3, 4, 2, 4, 2, 4][k].to_string();
+            let mut defines = vec![("ISG_COST_EVAL", eval.as_str()), ("ISG_COST_PER", "32")];
+            if k == 5 || k == 6 {
+                defines.push(("ISG_COST_NO_READS", "1"));
+            }
+            if k >= 7 {
+                defines.push(("ISG_COST_SCALAR_READS", "1"));
+            }
+            gpu.create_compute_pipeline("tests/isg_cost.comp", &defines).expect("pipeline")
         })
         .collect();
-    // Rounds over all evaluators, best of 7 each: the machine may be shared, the minimum is the
+    // Rounds over all evaluators, best of ROUNDS each: the machine may be shared, the minimum is the
     // least disturbed run.
     let mut ms = vec![f64::INFINITY; names.len()];
-    for _ in 0..7 {
+    for _ in 0..ROUNDS {
         for (k, pipe) in pipes.iter().enumerate() {
             let t = gpu
                 .run_frame(&mut frame, None, None, |rec| {
@@ -184,9 +203,9 @@ fn isg_gpu_cost() {
     gpu.destroy_buffer(table);
     gpu.destroy_buffer(out);
     let ns = |k: usize| (ms[k] - ms[0]) * 1e6 / QUERIES as f64;
-    eprintln!("ISG cost on {} (f32, {QUERIES} queries, best of 7):", gpu.info.name);
+    eprintln!("ISG cost on {} (f32, {QUERIES} queries, best of {ROUNDS}):", gpu.info.name);
     eprintln!("  {:<13} {:8.3} ms", names[0], ms[0]);
-    for k in 1..5 {
+    for k in 1..names.len() {
         eprintln!("  {:<13} {:8.3} ms  {:6.2} ns per query net", names[k], ms[k], ns(k));
     }
     eprintln!("  ours / paper: Ŝ {:.2}×, patch {:.2}×", ns(2) / ns(1), ns(4) / ns(3));
