@@ -1,7 +1,7 @@
 #version 460
 // Twin test of common/isg.glsl against engine/math/src/isg.rs.
-// data_in: the first ISG_LUT_SIZE = 8448 floats are IsgLut::generate_default().values (f32, in
-// order); then cases at stride 5 floats: [0] θ0, [1] θ1, [2] φ0, [3] φ1, [4] λ.
+// data_in: the first ISG_LUT_SIZE = 55808 floats are IsgLut::generate_default().values (f32, in
+// order, read 4 at a time as the table's vec4 entries); then cases at stride 5 floats: [0] θ0, [1] θ1, [2] φ0, [3] φ1, [4] λ.
 // data_out, stride 6 floats per case:
 //   [0] isg_paper(θ1, φ1, λ)          [1] isg_lut(θ1, φ1, λ)
 //   [2] isg_paper_patch(θ0, θ1, φ0, φ1, λ)   [3] isg_lut_patch(θ0, θ1, φ0, φ1, λ)
@@ -11,10 +11,10 @@ layout(std430, set = 0, binding = 0) readonly buffer Input { float data_in[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Output { float data_out[]; };
 layout(push_constant) uniform Push { uint count; } pc;
 
-#define ISG_LUT_FETCH(index) data_in[index]
+#define ISG_LUT_FETCH(index) vec4(data_in[4 * (index)], data_in[4 * (index) + 1], data_in[4 * (index) + 2], data_in[4 * (index) + 3])
 #include "../common/isg.glsl"
 
-const uint ISG_LUT_SIZE = 8448u;
+const uint ISG_LUT_SIZE = 55808u;
 const uint IN_STRIDE = 5u;
 const uint OUT_STRIDE = 6u;
 

@@ -3,7 +3,7 @@
 //!
 //! | name | generator | shape |
 //! |---|---|---|
-//! | `isg_lut` | [`IsgLut::generate_default`] | 33 λ slices × 16 × 16, Ŝ |
+//! | `isg_lut` | [`IsgLut::generate_default`] | 55 λ slices × 2 marginals × 64, packed (4 floats) |
 //! | `lobe_product` | [`lobes::product_table`] | 97 e1 × 97 e2 × 49 α, (ln p_r/peak, e_r) |
 //! | `lobe_hemisphere` | [`lobes::hemisphere_table`] | 769 e × 129 y, (f_h, f_b) |
 //! | `lobe_cap` | [`lobes::cap_table`] | 1000 α, k = e_cap α² |
@@ -15,7 +15,9 @@
 //! spread over threads here: it is the one that takes more than a second or two); [`Regenerator`] recomputes single
 //! entries from the same functions, and a unit test checks, bit for bit, that both agree on small tables.
 
-use crate::isg::{IsgLut, ISG_LUT_LAMBDA_MAX, ISG_LUT_LAMBDA_MIN, ISG_LUT_N, ISG_LUT_SLICES_PER_DECADE};
+use crate::isg::{
+    isg_lut_marginals, isg_lut_slice_lambda, IsgLut, ISG_LUT_N, ISG_LUT_OCTAVE0, ISG_LUT_OCTAVES, ISG_LUT_PER_OCTAVE,
+};
 use crate::lobes::{self, exponent_samples};
 use crate::sh::{circle_log_zonal, zonal_star, CircleLogTable, ShTensor, CIRCLE_TABLE_SAMPLES};
 use crate::shexp::OlTable;
@@ -75,7 +77,11 @@ impl MathTable {
 
     /// Bumped whenever the mathematics behind a table changes; the drift test then asks for regeneration.
     pub fn generator_version(&self) -> u32 {
-        1
+        match self {
+            // 2: the separable table of Ŝ's marginals (was 1: Ŝ on a 16 × 16 sigmoid-warped grid).
+            MathTable::IsgLut => 2,
+            _ => 1,
+        }
     }
 
     /// The table in full.
@@ -83,7 +89,7 @@ impl MathTable {
         match *self {
             MathTable::IsgLut => {
                 let lut = IsgLut::generate_default();
-                Table::from_f32(isg_header(lut.n, lut.slices), &lut.values)
+                Table::from_f32(isg_header(lut.n, lut.per_octave), &lut.values)
             }
             MathTable::LobeProduct => product_generate(lobes::PRODUCT_SAMPLES_PER_DECADE, lobes::PRODUCT_ALPHA_SAMPLES),
             MathTable::LobeHemisphere => {
@@ -113,18 +119,25 @@ fn f32s(k: usize) -> Vec<Component> {
     vec![Component::F32; k]
 }
 
-fn isg_header(n: usize, slices: usize) -> TableHeader {
+fn isg_header(n: usize, per_octave: usize) -> TableHeader {
+    let lo = 2f64.powi(ISG_LUT_OCTAVE0);
     TableHeader {
         name: MathTable::IsgLut.name(),
         generator_version: MathTable::IsgLut.generator_version(),
         axes: vec![
-            Axis::ln_uniform("lambda: SG sharpness", slices, ISG_LUT_LAMBDA_MIN, ISG_LUT_LAMBDA_MAX),
-            Axis::uniform("s_theta: sigmoid-warped theta (isg::IsgLut), theta in [0, pi]", n, 0.0, 1.0),
-            Axis::uniform("s_phi: sigmoid-warped phi (isg::IsgLut), phi in [0, pi]", n, 0.0, 1.0),
+            Axis::octave("lambda: SG sharpness", per_octave, lo, lo * 2f64.powi(ISG_LUT_OCTAVES as i32)),
+            Axis::index("marginal: 0 = M(theta) = S^(theta, pi), 1 = N(phi) = S^(pi, phi)", 2),
+            Axis::uniform(
+                "s = 1/2 + (angle - pi/2) max(sqrt(lambda)/(pi sqrt 6), 1/pi), angle in [0, pi]",
+                n,
+                0.0,
+                1.0,
+            ),
         ],
-        components: f32s(1),
-        description: "Normalized ISG integral S^(theta, phi; lambda) at warped coordinates (engine_math::isg::IsgLut, \
-                      isg.glsl ISG_LUT_FETCH); trilinear in (s_theta, s_phi, ln lambda)."
+        components: f32s(4),
+        description: "Marginals of the normalized ISG integral S^(theta, phi; lambda) (engine_math::isg::IsgLut, \
+                      isg.glsl ISG_LUT_FETCH), S^ ~ M(theta) N(phi); entry (l, a, i) packs (X_l[i], X_l[i+1], \
+                      X_l+1[i], X_l+1[i+1]) for one read per bilinear lookup in (s, lambda)."
             .into(),
     }
 }
@@ -296,8 +309,10 @@ fn gamma_table(t: &ShTensor) -> Table {
 enum Ctx {
     Isg {
         n: usize,
+        per_octave: usize,
         slices: usize,
-        cache: std::cell::RefCell<std::collections::HashMap<usize, Vec<f32>>>,
+        /// The two marginals of a slice, by slice.
+        cache: std::cell::RefCell<std::collections::HashMap<usize, [Vec<f64>; 2]>>,
     },
     Product {
         alpha_samples: usize,
@@ -327,9 +342,8 @@ pub struct Regenerator {
 impl Regenerator {
     /// For the table at its default dimensions.
     pub fn new(table: MathTable) -> Self {
-        let decades = (ISG_LUT_LAMBDA_MAX / ISG_LUT_LAMBDA_MIN).log10().round() as usize;
         match table {
-            MathTable::IsgLut => Self::isg(ISG_LUT_N, decades * ISG_LUT_SLICES_PER_DECADE + 1),
+            MathTable::IsgLut => Self::isg(ISG_LUT_N, ISG_LUT_PER_OCTAVE),
             MathTable::LobeProduct => Self::product(lobes::PRODUCT_SAMPLES_PER_DECADE, lobes::PRODUCT_ALPHA_SAMPLES),
             MathTable::LobeHemisphere => {
                 Self::hemisphere(lobes::HEMISPHERE_SAMPLES_PER_DECADE, lobes::HEMISPHERE_Y_SAMPLES)
@@ -343,8 +357,9 @@ impl Regenerator {
         }
     }
 
-    fn isg(n: usize, slices: usize) -> Self {
-        Self { header: isg_header(n, slices), ctx: Ctx::Isg { n, slices, cache: Default::default() } }
+    fn isg(n: usize, per_octave: usize) -> Self {
+        let slices = ISG_LUT_OCTAVES * per_octave + 1;
+        Self { header: isg_header(n, per_octave), ctx: Ctx::Isg { n, per_octave, slices, cache: Default::default() } }
     }
     fn product(per_decade: usize, alpha_samples: usize) -> Self {
         let es = exponent_samples(per_decade);
@@ -371,11 +386,20 @@ impl Regenerator {
         let idx = self.header.multi_index(linear);
         let f = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
         match &self.ctx {
-            Ctx::Isg { n, slices, cache } => {
-                let (l, i, j) = (idx[0], idx[1], idx[2]);
+            Ctx::Isg { n, per_octave, slices, cache } => {
+                let (l, a, i) = (idx[0], idx[1], idx[2]);
                 let mut cache = cache.borrow_mut();
-                let slice = cache.entry(l).or_insert_with(|| isg_slice(*n, *slices, l));
-                f(&[slice[i * n + j]])
+                let mut get = |l: usize| {
+                    cache
+                        .entry(l)
+                        .or_insert_with(|| {
+                            let (m, nn) = isg_lut_marginals(*n, isg_lut_slice_lambda(ISG_LUT_OCTAVE0, *per_octave, l));
+                            [m, nn]
+                        })
+                        .clone()
+                };
+                let (lo, hi) = (get(l), get((l + 1).min(slices - 1)));
+                f(&IsgLut::pack(&lo[a], &hi[a], i).map(|v| v as f32))
             }
             Ctx::Product { alpha_samples, es, .. } => {
                 let (i1, i2, j) = (idx[0], idx[1], idx[2]);
@@ -473,16 +497,6 @@ pub fn sample_indices(count: usize, k: usize, seed: u64) -> Vec<usize> {
     set.into_iter().collect()
 }
 
-/// Slice `l` of the ISG table, through the library's generator (a one-slice table starting at that slice's λ).
-fn isg_slice(n: usize, slices: usize, l: usize) -> Vec<f32> {
-    let ln0 = ISG_LUT_LAMBDA_MIN.ln();
-    let d = (ISG_LUT_LAMBDA_MAX.ln() - ln0) / (slices - 1) as f64;
-    let lambda = (ln0 + l as f64 * d).exp();
-    let mut t = IsgLut::generate(n, lambda, 2.0 * lambda, 2);
-    t.values.truncate(n * n);
-    t.values
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -521,21 +535,11 @@ mod tests {
 
     #[test]
     fn isg_regenerator_matches_library() {
-        // Slices 0, 16 and 32 of the default λ range, at 5 × 5 samples.
-        let slices = 33;
-        let lut = IsgLut::generate(5, ISG_LUT_LAMBDA_MIN, ISG_LUT_LAMBDA_MAX, slices);
-        let r = Regenerator::isg(5, slices);
-        let t = Table::from_f32(isg_header(5, slices), &lut.values);
-        assert_eq!(r.header(), &t.header);
-        let mut worst = 0.0f64;
-        for l in [0, 16, 32] {
-            for k in l * 25..(l + 1) * 25 {
-                // λ of the one-slice table is exp(ln(λ_l)): within an ulp of the full table's λ_l.
-                let (a, b) = (f32::from_bits(r.entry(k)[0]), f32::from_bits(t.entry(k)[0]));
-                worst = worst.max((a - b).abs() as f64);
-            }
-        }
-        assert!(worst <= 1e-6, "{worst}");
+        // 5 samples, 1 slice per octave: every entry, bit for bit (the same calls on both paths).
+        let lut = IsgLut::generate(5, ISG_LUT_OCTAVE0, ISG_LUT_OCTAVES, 1);
+        let t = Table::from_f32(isg_header(5, 1), &lut.values);
+        assert_eq!(t.header.axes[0].sample(3), isg_lut_slice_lambda(ISG_LUT_OCTAVE0, 1, 3));
+        all_entries_equal(&Regenerator::isg(5, 1), &t);
     }
 
     #[test]

@@ -48,6 +48,9 @@ pub enum Sampling {
     LobeExponent,
     /// A list: sample i is entry i (e.g. the sparse SH tensor); `lo` = 0, `hi` = count − 1.
     Index,
+    /// `param` = R samples per octave, linear within each octave: sample i is
+    /// `2^(log2 lo + i div R) (1 + (i mod R)/R)`; `lo` and `hi` are powers of two (the ISG table's λ).
+    Octave,
 }
 
 impl Sampling {
@@ -57,6 +60,7 @@ impl Sampling {
             Sampling::LnUniform => 1,
             Sampling::LobeExponent => 2,
             Sampling::Index => 3,
+            Sampling::Octave => 4,
         }
     }
     fn from_code(c: u32) -> Option<Self> {
@@ -65,6 +69,7 @@ impl Sampling {
             1 => Sampling::LnUniform,
             2 => Sampling::LobeExponent,
             3 => Sampling::Index,
+            4 => Sampling::Octave,
             _ => return None,
         })
     }
@@ -112,6 +117,19 @@ impl Axis {
         }
     }
 
+    /// `per_octave` samples per octave from `lo` to `hi` (both powers of two), see [`Sampling::Octave`].
+    pub fn octave(label: impl Into<String>, per_octave: usize, lo: f64, hi: f64) -> Self {
+        let octaves = (hi / lo).log2().round() as usize;
+        Self {
+            label: label.into(),
+            count: (octaves * per_octave + 1) as u32,
+            sampling: Sampling::Octave,
+            param: per_octave as u32,
+            lo,
+            hi,
+        }
+    }
+
     /// The axis value of sample `i`.
     pub fn sample(&self, i: usize) -> f64 {
         let t = if self.count > 1 { i as f64 / (self.count - 1) as f64 } else { 0.0 };
@@ -120,6 +138,10 @@ impl Axis {
             Sampling::LnUniform => (self.lo.ln() + (self.hi.ln() - self.lo.ln()) * t).exp(),
             Sampling::LobeExponent => crate::lobes::exponent_samples(self.param as usize)[i],
             Sampling::Index => i as f64,
+            Sampling::Octave => {
+                let r = self.param.max(1) as usize;
+                self.lo * 2f64.powi((i / r) as i32) * (1.0 + (i % r) as f64 / r as f64)
+            }
         }
     }
 }

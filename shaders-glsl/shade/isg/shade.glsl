@@ -18,7 +18,7 @@ struct EnvLobe {
     vec4 mu;
 };
 layout(std430, binding = 9) readonly buffer EnvSgs { EnvLobe env_lobes[]; };
-layout(std430, binding = 10) readonly buffer IsgTable { float isg_table[]; };
+layout(std430, binding = 10) readonly buffer IsgTable { vec4 isg_table[]; };
 layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 // ints: K, patches per side, evaluator (bit 0: 0 table, 1 paper) | diffuse ratio (bit 1), sphere count;
 // floats: ln ε, node threshold (patch widths), cosine-SG λ, cosine-SG μ.

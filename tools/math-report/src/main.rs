@@ -121,13 +121,11 @@ fn write_plot(dir: &Path, file: &str, p: &Plot) -> Result<(), String> {
 fn committed_isg_lut() -> Result<IsgLut, String> {
     let t = Table::read(&tables_dir().join("isg_lut.bin")).map_err(|e| e.to_string())?;
     let ax = &t.header.axes;
-    let slices = ax[0].count as usize;
-    let ln0 = ax[0].lo.ln();
     Ok(IsgLut {
-        n: ax[1].count as usize,
-        ln_lambda0: ln0,
-        d_ln_lambda: (ax[0].hi.ln() - ln0) / (slices - 1) as f64,
-        slices,
+        n: ax[2].count as usize,
+        octave0: ax[0].lo.log2().round() as i32,
+        per_octave: ax[0].param as usize,
+        slices: ax[0].count as usize,
         values: t.f32_values(),
     })
 }
@@ -182,8 +180,8 @@ fn isg_section(dir: &Path) -> Result<String, String> {
     let mut s = String::from("## ISG: normalized integral Ŝ(θ, φ; λ)\n\n![ISG error](isg_error.svg)\n\n");
     s += "Error over an 82 × 82 (θ, φ) grid (41 uniform angles on [0, π] plus 41 across the lobe, \
           `isg::isg_error_grid`) against tensor Gauss–Legendre quadrature (`isg_exact_grid`, ~1e-12). \
-          Ours is the committed `assets/tables/isg_lut.bin` (16 × 16 × 33 f32, 33 KiB), trilinear in warped \
-          coordinates.\n\n";
+          Ours is the committed `assets/tables/isg_lut.bin`: Ŝ ≈ M(θ) N(φ), the product of Ŝ's two marginals, \
+          each tabulated at 64 angles × 109 λ slices (packed 4 f32 per entry, 218 KiB).\n\n";
     s += "| | paper's fit | ours (isg_lut) |\n|---|---|---|\n";
     let _ = writeln!(s, "| max error, λ ∈ [1e-2, 1e4] | {} | {} |", sci(pm4), sci(lm4));
     let _ = writeln!(s, "| max error, λ ∈ [1e-2, 1e5] | {} | {} |", sci(pm5), sci(lm5));
