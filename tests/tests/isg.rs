@@ -6,8 +6,6 @@ use engine::blockers::Sphere;
 use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
-use engine::math::prefilter::resample;
-use engine::math::sg::fit_envmap_sgs;
 use engine::passes::shade::isg::{cpu, Diffuse, Evaluator, IsgOptions};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
@@ -127,9 +125,9 @@ fn gpu_matches_the_f64_twin() {
     let (c, r) = (Vec3::new(0.2, 0.6, -0.1), 0.45f32);
     let scene = demos::sphere_over_plane(sky.clone(), 0.7, c, r);
     let lut = IsgLut::generate_default();
-    let (fits, _) = fit_envmap_sgs(&resample(&sky, 128, 64), 10);
+    let (fitted, _) = engine::passes::shade::isg::fit_environment(&sky, 10, engine::passes::shade::isg::REFINE_ROUNDS);
     // The GPU reads the lobes as f32.
-    let lobes: Vec<_> = fits[9]
+    let lobes: Vec<_> = fitted
         .iter()
         .map(|l| {
             let mut l = *l;

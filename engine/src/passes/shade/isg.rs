@@ -15,7 +15,8 @@
 //! `K` environment lobes (1..32), `patches` per side P (P² patches, 1..32), `eps` the limiting-angle
 //! threshold ε, `threshold` the BVH node size (in patch widths) below which a node is taken whole,
 //! `evaluator` `table` (ours, engine-math IsgLut) or `paper` (the paper's sigmoid fit), `diffuse`
-//! `ratio` (default: exact irradiance times the lobes' visibility ratio) or `sg` (the paper's Eq. 5).
+//! `ratio` (default: exact irradiance times the lobes' visibility ratio) or `sg` (the paper's Eq. 5),
+//! `refine` rounds of coordinate descent on the greedy environment fit (6; 0 = greedy only).
 //!
 //! Not modelled: thin shells (triangles rasterized into patches, §5) and anisotropic BRDF lobes.
 //! [`cpu`] is the f64 twin of the whole per-point integral.
@@ -25,7 +26,7 @@ use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Image, Recorder, Re
 use crate::renderer::GpuScene;
 use crate::tables::MathTables;
 use engine_math::prefilter::resample;
-use engine_math::sg::{fit_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
+use engine_math::sg::{fit_envmap_sgs, refine_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
 use engine_math::table_gen::MathTable;
 
 /// Which ISG evaluator computes Ŝ at patch corners.
@@ -58,11 +59,13 @@ pub struct IsgOptions {
     pub node_threshold: f64,
     pub evaluator: Evaluator,
     pub diffuse: Diffuse,
+    /// Coordinate-descent rounds refining the greedy environment fit (0: greedy only).
+    pub refine: usize,
 }
 
 impl Default for IsgOptions {
     fn default() -> Self {
-        Self { k: 10, side: 16, epsilon: 0.01, node_threshold: 1.0, evaluator: Evaluator::Table, diffuse: Diffuse::Ratio }
+        Self { k: 10, side: 16, epsilon: 0.01, node_threshold: 1.0, evaluator: Evaluator::Table, diffuse: Diffuse::Ratio, refine: REFINE_ROUNDS }
     }
 }
 
@@ -104,6 +107,12 @@ impl IsgOptions {
                         _ => return Err(bad(k, v, "use table or paper")),
                     }
                 }
+                "refine" => {
+                    o.refine = v.parse().map_err(|_| bad(k, v, "not an integer"))?;
+                    if o.refine > 100 {
+                        return Err(bad(k, v, "at most 100 rounds"));
+                    }
+                }
                 "diffuse" => {
                     o.diffuse = match v.as_str() {
                         "sg" => Diffuse::Sg,
@@ -113,7 +122,7 @@ impl IsgOptions {
                 }
                 _ => {
                     return Err(GpuError::Other(format!(
-                        "unknown isg option '{k}' (options: K, patches, eps, threshold, evaluator, diffuse)"
+                        "unknown isg option '{k}' (options: K, patches, eps, threshold, evaluator, diffuse, refine)"
                     )))
                 }
             }
@@ -187,10 +196,9 @@ impl Technique for Isg {
 
     fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
         self.release(gpu);
-        let small = resample(&scene.environment_cpu, FIT_SIZE.0, FIT_SIZE.1);
-        let (fits, errors) = fit_envmap_sgs(&small, self.options.k);
-        self.lobes = fits.last().cloned().unwrap_or_default();
-        self.fit_error = errors.last().copied().unwrap_or(1.0);
+        let (lobes, error) = fit_environment(&scene.environment_cpu, self.options.k, self.options.refine);
+        self.lobes = lobes;
+        self.fit_error = error;
         let lobes: Vec<GpuSgLobe> = self
             .lobes
             .iter()
@@ -266,6 +274,19 @@ impl Technique for Isg {
         self.release(gpu);
         self.pipelines.destroy(gpu);
     }
+}
+
+/// The environment as K SGs: the greedy fit of a 128×64 resampling, refined by `refine` rounds of
+/// coordinate descent. Returns the lobes and the relative L2 error of the fit.
+pub fn fit_environment(env: &engine_math::envmap::LatLongMap, k: usize, refine: usize) -> (Vec<SgRgb>, f64) {
+    let small = resample(env, FIT_SIZE.0, FIT_SIZE.1);
+    let (fits, errors) = fit_envmap_sgs(&small, k);
+    let greedy = fits.last().cloned().unwrap_or_default();
+    let error = errors.last().copied().unwrap_or(1.0);
+    if refine == 0 || greedy.is_empty() {
+        return (greedy, error);
+    }
+    refine_envmap_sgs(&small, &greedy, refine)
 }
 
 /// A storage buffer may not be empty: K ≥ 1 always, but keep one zero lobe if a fit returned none.
@@ -523,9 +544,10 @@ mod tests {
         let kv = |s: &str| -> Vec<(String, String)> {
             s.split(',').map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).unwrap()).collect()
         };
-        let o = IsgOptions::parse(&kv("K=4,patches=20,eps=0.05,threshold=0.5,evaluator=paper")).unwrap();
+        let o = IsgOptions::parse(&kv("K=4,patches=20,eps=0.05,threshold=0.5,evaluator=paper,refine=0")).unwrap();
+        assert_eq!(o.refine, 0);
         assert_eq!((o.k, o.side, o.evaluator), (4, 20, Evaluator::Paper));
-        for bad in ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x"] {
+        for bad in ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x", "refine=x", "diffuse=x"] {
             assert!(IsgOptions::parse(&kv(bad)).is_err(), "{bad}");
         }
     }
