@@ -55,6 +55,10 @@ struct Args {
     /// `presented frame N` for each.
     #[arg(long, default_value_t = 0)]
     exit_after: u64,
+    /// Performance capture: render N frames and write every frame's per-pass GPU times to
+    /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
+    #[arg(long, value_name = "N")]
+    capture: Option<u32>,
 }
 
 fn main() {
@@ -99,11 +103,25 @@ fn run() -> anyhow::Result<()> {
         Some(el) => {
             demos::viewer::run(el, &gpu, &mut renderer, demos::viewer::ViewerOptions { exit_after: args.exit_after })
         }
-        None => render_frames(&gpu, &mut renderer, &args),
+        None => match args.capture {
+            Some(n) => demos::capture::run(&gpu, &mut renderer, n, &args.out, &args.name, &capture_info(&gpu, &args)),
+            None => render_frames(&gpu, &mut renderer, &args),
+        },
     };
     renderer.destroy(&gpu);
     gpu.shutdown()?;
     result
+}
+
+fn capture_info(gpu: &Gpu, args: &Args) -> demos::capture::CaptureInfo {
+    demos::capture::CaptureInfo {
+        device: gpu.info.name.clone(),
+        scene: args.scene.clone(),
+        technique: args.technique.clone(),
+        per_vertex: args.per_vertex,
+        width: args.width,
+        height: args.height,
+    }
 }
 
 fn render_frames(gpu: &Gpu, renderer: &mut Renderer, args: &Args) -> anyhow::Result<()> {
