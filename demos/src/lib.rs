@@ -9,6 +9,7 @@ use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
 
 pub mod capture;
+pub mod export;
 pub mod viewer;
 
 /// The project's `assets/` folder (`ENGINE_ASSETS` overrides).

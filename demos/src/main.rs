@@ -59,6 +59,10 @@ struct Args {
     /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
     #[arg(long, value_name = "N")]
     capture: Option<u32>,
+    /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr; see
+    /// demos/src/export.rs) and write our render of the same frame there as engine.exr / engine.png.
+    #[arg(long, value_name = "DIR")]
+    export: Option<PathBuf>,
 }
 
 fn main() {
@@ -98,6 +102,12 @@ fn run() -> anyhow::Result<()> {
         let per_frame = spp.clamp(1, 64);
         r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: per_frame, ..r.options() })?;
         args.frames = spp.div_ceil(per_frame);
+    }
+    if let Some(dir) = &args.export {
+        let opts = demos::export::ExportOptions { width: args.width, height: args.height, spp: 256, camera: None };
+        let e = demos::export::export_mitsuba(&scene, dir, &opts)?;
+        println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
+        (args.out, args.name) = (dir.clone(), "engine".into());
     }
     let result = match event_loop {
         Some(el) => {
