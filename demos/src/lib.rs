@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 pub mod capture;
 pub mod export;
+pub mod measure;
 pub mod viewer;
 
 /// The project's `assets/` folder (`ENGINE_ASSETS` overrides).
