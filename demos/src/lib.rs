@@ -8,6 +8,9 @@ use engine::scene::{load_environment, load_obj, Camera, Instance, Material, Mesh
 use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
 
+pub mod capture;
+pub mod export;
+pub mod measure;
 pub mod viewer;
 
 /// The project's `assets/` folder (`ENGINE_ASSETS` overrides).

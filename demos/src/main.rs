@@ -55,6 +55,14 @@ struct Args {
     /// `presented frame N` for each.
     #[arg(long, default_value_t = 0)]
     exit_after: u64,
+    /// Performance capture: render N frames and write every frame's per-pass GPU times to
+    /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
+    #[arg(long, value_name = "N")]
+    capture: Option<u32>,
+    /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr; see
+    /// demos/src/export.rs) and write our render of the same frame there as engine.exr / engine.png.
+    #[arg(long, value_name = "DIR")]
+    export: Option<PathBuf>,
 }
 
 fn main() {
@@ -95,15 +103,35 @@ fn run() -> anyhow::Result<()> {
         r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: per_frame, ..r.options() })?;
         args.frames = spp.div_ceil(per_frame);
     }
+    if let Some(dir) = &args.export {
+        let opts = demos::export::ExportOptions { width: args.width, height: args.height, spp: 256, camera: None };
+        let e = demos::export::export_mitsuba(&scene, dir, &opts)?;
+        println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
+        (args.out, args.name) = (dir.clone(), "engine".into());
+    }
     let result = match event_loop {
         Some(el) => {
             demos::viewer::run(el, &gpu, &mut renderer, demos::viewer::ViewerOptions { exit_after: args.exit_after })
         }
-        None => render_frames(&gpu, &mut renderer, &args),
+        None => match args.capture {
+            Some(n) => demos::capture::run(&gpu, &mut renderer, n, &args.out, &args.name, &capture_info(&gpu, &args)),
+            None => render_frames(&gpu, &mut renderer, &args),
+        },
     };
     renderer.destroy(&gpu);
     gpu.shutdown()?;
     result
+}
+
+fn capture_info(gpu: &Gpu, args: &Args) -> demos::capture::CaptureInfo {
+    demos::capture::CaptureInfo {
+        device: gpu.info.name.clone(),
+        scene: args.scene.clone(),
+        technique: args.technique.clone(),
+        per_vertex: args.per_vertex,
+        width: args.width,
+        height: args.height,
+    }
 }
 
 fn render_frames(gpu: &Gpu, renderer: &mut Renderer, args: &Args) -> anyhow::Result<()> {

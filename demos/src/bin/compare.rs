@@ -10,10 +10,10 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
+use demos::measure::{self, file_stem};
 use engine::gpu::{Gpu, GpuDesc};
-use engine::metrics;
-use engine::passes::shade::reference::{self, ReferenceOptions, Visibility};
-use engine::renderer::{RenderSettings, Renderer};
+use engine::passes::shade::reference::Visibility;
+use engine::renderer::RenderSettings;
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -60,18 +60,6 @@ fn main() {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-}
-
-struct Measured {
-    spec: String,
-    shade_ms: f64,
-    hdr: Vec<f32>,
-    ldr: Vec<u8>,
-}
-
 fn run() -> Result<()> {
     let args = Args::parse();
     let mut scene = demos::build_scene(&args.scene, None)?;
@@ -111,20 +99,9 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
     let mut measured = Vec::new();
     for spec in &args.techniques {
         eprintln!("rendering {spec} ({} frames)...", args.frames);
-        let mut r = Renderer::new(gpu, scene, settings(args, spec))?;
-        let mut times = Vec::new();
-        let frames = (|| -> Result<()> {
-            for _ in 0..args.frames.max(1) {
-                let t = r.render(gpu)?;
-                times.push(t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum::<f64>());
-            }
-            Ok(())
-        })();
-        let images = frames.and_then(|_| Ok((r.read_radiance(gpu)?, r.read_ldr(gpu)?)));
-        r.destroy(gpu);
-        let (hdr, ldr) = images?;
-        engine::output::write_png(&args.out.join(format!("{}.png", file_stem(spec))), w, h, &ldr)?;
-        measured.push(Measured { spec: spec.clone(), shade_ms: median(times), hdr, ldr });
+        let m = measure::measure_technique(gpu, scene, settings(args, spec), args.frames)?;
+        engine::output::write_png(&args.out.join(format!("{}.png", file_stem(spec))), w, h, &m.ldr)?;
+        measured.push(m);
     }
     println!(
         "scene {} {}x{}{}, gloss {:?}, ks {:?}",
@@ -136,71 +113,42 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         args.ks
     );
     for (vis_name, vis) in visibilities {
-        let mut r = Renderer::new(gpu, scene, settings(args, "reference"))?;
-        let out = (|| -> Result<()> {
-            let opts = ReferenceOptions { samples_per_frame: 16, seed: 1, visibility: *vis, ..Default::default() };
-            reference::reference_mut(&mut r).context("reference technique")?.set_options(opts)?;
-            // Converge against the most accurate technique measured (the smallest error).
-            let items = |hdr: &[f32]| -> Vec<[f32; 3]> { hdr.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect() };
-            let first = items(&measured[0].hdr);
-            eprintln!("converging the {vis_name} reference (max {} spp)...", args.max_spp);
-            let t0 = std::time::Instant::now();
-            let (report, stats) = reference::converge_against(gpu, &mut r, &first, args.fraction, args.max_spp)?;
-            let ref_hdr: Vec<f32> = stats.mean.iter().flat_map(|m| [m[0], m[1], m[2], 1.0]).collect();
-            let mask = &stats.covered;
-            // One reference frame's time per sample, for the speed ratio at equal error.
-            let t = r.render(gpu)?;
-            let ref_ms_per_frame: f64 = t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum();
-            let ref_ms_per_sample = ref_ms_per_frame / opts.samples_per_frame as f64;
+        // Converge against the most accurate technique measured (the smallest error).
+        eprintln!("converging the {vis_name} reference (max {} spp)...", args.max_spp);
+        let against: Vec<&[f32]> = measured.iter().map(|m| m.hdr.as_slice()).collect();
+        let run = measure::ReferenceRun {
+            visibility: *vis,
+            fraction: args.fraction,
+            max_spp: args.max_spp,
+            samples_per_frame: 16,
+        };
+        let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
+        println!(
+            "reference ({vis_name}): {} spp in {:.0} s, relative standard error {:.3} % ({}converged), {:.1} ms per sample per pixel-frame",
+            r.report.samples,
+            r.seconds,
+            100.0 * r.report.relative_stderr,
+            if r.report.converged { "" } else { "not " },
+            r.ms_per_sample
+        );
+        engine::output::write_png(&args.out.join(format!("reference-{vis_name}.png")), w, h, &r.ldr)?;
+        println!("| technique | vs {vis_name} reference: rel. RMSE % | minus reference noise % | max error | FLIP mean | shade ms | ref. samples at that time |");
+        println!("|---|---|---|---|---|---|---|");
+        for m in &measured {
+            let e = measure::errors(&m.hdr, &m.ldr, &r, w, h);
+            let stem = file_stem(&m.spec);
+            measure::write_heatmap(&args.out.join(format!("{stem}-vs-{vis_name}-error.png")), &m.hdr, &r, w, h)?;
             println!(
-                "reference ({vis_name}): {} spp in {:.0} s, relative standard error {:.3} % ({}converged), {:.1} ms per sample per pixel-frame",
-                report.samples,
-                t0.elapsed().as_secs_f64(),
-                100.0 * report.relative_stderr,
-                if report.converged { "" } else { "not " },
-                ref_ms_per_sample
+                "| {} | {:.2} | {:.2} | {:.3} | {:.4} | {:.2} | {:.1} |",
+                m.spec,
+                e.rmse,
+                e.debiased,
+                e.max_abs,
+                e.flip,
+                m.shade_ms,
+                m.shade_ms / r.ms_per_sample
             );
-            let ref_ldr = r.read_ldr(gpu)?;
-            engine::output::write_png(&args.out.join(format!("reference-{vis_name}.png")), w, h, &ref_ldr)?;
-            println!("| technique | vs {vis_name} reference: rel. RMSE % | minus reference noise % | max error | FLIP mean | shade ms | ref. samples at that time |");
-            println!("|---|---|---|---|---|---|---|");
-            for m in &measured {
-                let rmse = metrics::relative_rmse_percent(&m.hdr, &ref_hdr, mask);
-                let max = metrics::max_error(&m.hdr, &ref_hdr, mask);
-                let flip = metrics::flip_mean(&m.ldr, &ref_ldr, w, h, Some(mask));
-                let stem = file_stem(&m.spec);
-                let scale = ref_hdr.iter().copied().fold(0.0f32, f32::max).max(1e-6) * 0.1;
-                metrics::write_error_heatmap(
-                    &args.out.join(format!("{stem}-vs-{vis_name}-error.png")),
-                    &m.hdr,
-                    &ref_hdr,
-                    mask,
-                    w,
-                    h,
-                    scale,
-                )?;
-                // The measured RMSE² is the technique's error² plus the reference's own noise².
-                let noise = 100.0 * report.relative_stderr;
-                let debiased = (rmse * rmse - noise * noise).max(0.0).sqrt();
-                println!(
-                    "| {} | {:.2} | {:.2} | {:.3} | {:.4} | {:.2} | {:.1} |",
-                    m.spec,
-                    rmse,
-                    debiased,
-                    max.abs,
-                    flip,
-                    m.shade_ms,
-                    m.shade_ms / ref_ms_per_sample
-                );
-            }
-            Ok(())
-        })();
-        r.destroy(gpu);
-        out?;
+        }
     }
     Ok(())
-}
-
-fn file_stem(spec: &str) -> String {
-    spec.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect()
 }

@@ -1,0 +1,163 @@
+//! Shared measurement steps of `compare` and `report`: render a technique for a few frames (median GPU times and
+//! the final images), converge the Monte Carlo reference against the measured images, and the error metrics of an
+//! image against a reference.
+
+use anyhow::{Context, Result};
+use engine::gpu::Gpu;
+use engine::metrics;
+use engine::passes::shade::reference::{self, ConvergeReport, ReferenceOptions, Visibility};
+use engine::renderer::{RenderSettings, Renderer};
+use engine::scene::Scene;
+use std::path::Path;
+
+/// Median (the upper middle value for an even count; NaN when empty).
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// A file name made of a technique spec.
+pub fn file_stem(spec: &str) -> String {
+    spec.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect()
+}
+
+/// One technique rendered for some frames.
+pub struct Measured {
+    pub spec: String,
+    /// Median over the frames of the summed `shade/*` passes (the technique's own cost), ms.
+    pub shade_ms: f64,
+    /// Median over the frames of the whole frame (every pass), ms.
+    pub frame_ms: f64,
+    /// Linear RGBA32F image of the last frame.
+    pub hdr: Vec<f32>,
+    /// Tone-mapped RGBA8 image of the last frame.
+    pub ldr: Vec<u8>,
+}
+
+/// Render `frames` frames (at least 1) of `settings.technique` and keep the last frame's images.
+pub fn measure_technique(gpu: &Gpu, scene: &Scene, settings: RenderSettings, frames: u32) -> Result<Measured> {
+    let spec = settings.technique.clone();
+    let mut r = Renderer::new(gpu, scene, settings).with_context(|| format!("preparing technique {spec}"))?;
+    let (mut shade, mut total) = (Vec::new(), Vec::new());
+    let out = (|| -> Result<(Vec<f32>, Vec<u8>)> {
+        for _ in 0..frames.max(1) {
+            let t = r.render(gpu)?;
+            shade.push(t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum::<f64>());
+            total.push(t.iter().map(|p| p.ms).sum::<f64>());
+        }
+        Ok((r.read_radiance(gpu)?, r.read_ldr(gpu)?))
+    })();
+    r.destroy(gpu);
+    let (hdr, ldr) = out?;
+    Ok(Measured { spec, shade_ms: median(shade), frame_ms: median(total), hdr, ldr })
+}
+
+/// A converged reference image.
+pub struct ReferenceImage {
+    pub visibility: Visibility,
+    pub hdr: Vec<f32>,
+    pub ldr: Vec<u8>,
+    /// Covered pixels (the metrics' mask).
+    pub mask: Vec<bool>,
+    pub report: ConvergeReport,
+    /// GPU time of one reference frame divided by its samples per pixel.
+    pub ms_per_sample: f64,
+    /// Wall-clock seconds of the convergence.
+    pub seconds: f64,
+}
+
+pub fn visibility_name(v: Visibility) -> &'static str {
+    match v {
+        Visibility::Triangles => "triangles",
+        Visibility::Spheres => "spheres",
+        Visibility::Unoccluded => "unoccluded",
+    }
+}
+
+/// How to converge a reference (see [`converge_reference`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ReferenceRun {
+    pub visibility: Visibility,
+    /// Stop when the relative standard error is this fraction of the smallest measured error.
+    pub fraction: f64,
+    pub max_spp: u32,
+    pub samples_per_frame: u32,
+}
+
+/// Converge the per-pixel reference with `visibility` until its relative standard error is at most `fraction`
+/// of the smallest relative RMSE of the `against` images (linear RGBA, at `settings`' size) against it, or
+/// `max_spp` samples per pixel are reached. `settings.technique` and `per_vertex` are overridden.
+pub fn converge_reference(
+    gpu: &Gpu,
+    scene: &Scene,
+    settings: &RenderSettings,
+    run: &ReferenceRun,
+    against: &[&[f32]],
+) -> Result<ReferenceImage> {
+    let ReferenceRun { visibility, fraction, max_spp, samples_per_frame } = *run;
+    let settings = RenderSettings { technique: "reference".into(), per_vertex: false, ..settings.clone() };
+    let mut r = Renderer::new(gpu, scene, settings)?;
+    let out = (|| -> Result<ReferenceImage> {
+        let opts =
+            ReferenceOptions { samples_per_frame: samples_per_frame.max(1), seed: 1, visibility, ..Default::default() };
+        reference::reference_mut(&mut r).context("reference technique")?.set_options(opts)?;
+        let items: Vec<Vec<[f32; 3]>> =
+            against.iter().map(|hdr| hdr.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect()).collect();
+        let t0 = std::time::Instant::now();
+        let (report, stats) = reference::converge_until(gpu, &mut r, max_spp, |s| {
+            let err = items
+                .iter()
+                .map(|m| metrics::relative_rmse_items(m, &s.mean, &s.covered))
+                .fold(f64::INFINITY, f64::min);
+            s.relative_stderr() <= fraction * err
+        })?;
+        let seconds = t0.elapsed().as_secs_f64();
+        anyhow::ensure!(stats.nonfinite_samples == 0, "reference: {} non-finite samples", stats.nonfinite_samples);
+        let hdr: Vec<f32> = stats.mean.iter().flat_map(|m| [m[0], m[1], m[2], 1.0]).collect();
+        let t = r.render(gpu)?;
+        let frame_ms: f64 = t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum();
+        let ldr = r.read_ldr(gpu)?;
+        Ok(ReferenceImage {
+            visibility,
+            hdr,
+            ldr,
+            mask: stats.covered,
+            report,
+            ms_per_sample: frame_ms / opts.samples_per_frame as f64,
+            seconds,
+        })
+    })();
+    r.destroy(gpu);
+    out
+}
+
+/// Errors of an image against a reference (over the reference's covered pixels).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Errors {
+    /// Relative RMSE, %.
+    pub rmse: f64,
+    /// The same with the reference's own noise removed: √(RMSE² − σ²), σ its relative standard error in %.
+    pub debiased: f64,
+    /// Largest per-channel absolute error.
+    pub max_abs: f64,
+    /// Mean LDR FLIP.
+    pub flip: f64,
+}
+
+pub fn errors(hdr: &[f32], ldr: &[u8], r: &ReferenceImage, width: u32, height: u32) -> Errors {
+    let rmse = metrics::relative_rmse_percent(hdr, &r.hdr, &r.mask);
+    let noise = 100.0 * r.report.relative_stderr;
+    Errors {
+        rmse,
+        debiased: (rmse * rmse - noise * noise).max(0.0).sqrt(),
+        max_abs: metrics::max_error(hdr, &r.hdr, &r.mask).abs,
+        flip: metrics::flip_mean(ldr, &r.ldr, width, height, Some(&r.mask)),
+    }
+}
+
+/// Heat map of |image − reference| scaled to a tenth of the reference's maximum.
+pub fn write_heatmap(path: &Path, hdr: &[f32], r: &ReferenceImage, width: u32, height: u32) -> Result<()> {
+    let scale = r.hdr.iter().copied().fold(0.0f32, f32::max).max(1e-6) * 0.1;
+    metrics::write_error_heatmap(path, hdr, &r.hdr, &r.mask, width, height, scale)?;
+    Ok(())
+}
