@@ -93,7 +93,7 @@ impl LatLongMap {
 
     /// Downsample by an integer box filter weighted by texel solid angle (keeps the integral).
     pub fn downsample(&self, factor: usize) -> Self {
-        assert!(factor >= 1 && self.width % factor == 0 && self.height % factor == 0);
+        assert!(factor >= 1 && self.width.is_multiple_of(factor) && self.height.is_multiple_of(factor));
         let (w, h) = (self.width / factor, self.height / factor);
         let mut texels = vec![[0.0f32; 3]; w * h];
         for row in 0..h {

@@ -59,6 +59,7 @@ pub fn integrate_gl(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize, panels: us
 
 /// Adaptive Simpson integration of f over [a, b] to absolute tolerance `tol`.
 pub fn adaptive_simpson(f: &impl Fn(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
+    #[allow(clippy::too_many_arguments)] // the recursion carries its interval, samples and tolerance
     fn step(
         f: &impl Fn(f64) -> f64,
         a: f64,

@@ -431,16 +431,16 @@ fn ls_amplitudes(lobes: &[SgRgb], dirs: &[Vec3], wts: &[f64], vals: &[[f64; 3]],
     }
     let mut out = lobes.to_vec();
     for c in 0..3 {
-        let rhs: Vec<f64> = (0..k).map(|a| (0..n).map(|i| wts[i] * basis[a][i] * vals[i][c]).sum()).collect();
+        let rhs: Vec<f64> = basis.iter().map(|b| b.iter().zip(wts).zip(vals).map(|((g, w), v)| w * g * v[c]).sum()).collect();
         for (lobe, x) in out.iter_mut().zip(solve_spd(&gram, &rhs, k)) {
             lobe.mu[c] = x;
         }
     }
     let mut e2 = 0.0;
     for i in 0..n {
-        for c in 0..3 {
+        for (c, &v) in vals[i].iter().enumerate() {
             let m: f64 = (0..k).map(|a| out[a].mu[c] * basis[a][i]).sum();
-            e2 += wts[i] * (vals[i][c] - m) * (vals[i][c] - m);
+            e2 += wts[i] * (v - m) * (v - m);
         }
     }
     (out, (e2 / norm2.max(1e-300)).sqrt())

@@ -38,7 +38,8 @@ enum Ty {
     Image { sampled: u32 },
     SampledImage,
     Sampler,
-    Pointer(u32, u32),
+    /// Pointer to the pointee type id (the storage class is not needed).
+    Pointer(u32),
     Other,
 }
 
@@ -144,7 +145,7 @@ pub fn reflect(code: &[u32]) -> Result<Reflection, String> {
                 types.insert(w[0], Ty::Struct(w[1..].to_vec()));
             }
             OP_TYPE_POINTER if w.len() >= 3 => {
-                types.insert(w[0], Ty::Pointer(w[1], w[2]));
+                types.insert(w[0], Ty::Pointer(w[2]));
             }
             OP_CONSTANT if w.len() >= 3 => {
                 constants.insert(w[1], w[2]);
@@ -208,7 +209,7 @@ pub fn reflect(code: &[u32]) -> Result<Reflection, String> {
 
     let mut out = Reflection { local_size, ..Default::default() };
     for &(ptr_ty, id, sc) in &variables {
-        let Some(Ty::Pointer(_, pointee)) = types.get(&ptr_ty) else { continue };
+        let Some(Ty::Pointer(pointee)) = types.get(&ptr_ty) else { continue };
         let mut base = *pointee;
         while let Some(Ty::Array(e, _)) = types.get(&base) {
             base = *e;

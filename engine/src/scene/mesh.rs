@@ -23,7 +23,7 @@ impl Mesh {
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(SceneError::invalid(origin, format!("mesh '{name}': vertex {i} has a non-finite position {:?}", positions[i])));
         }
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(SceneError::invalid(origin, format!("mesh '{name}': index count {} is not a multiple of 3", indices.len())));
         }
         if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {

@@ -504,8 +504,8 @@ pub mod cpu {
             let axis = DVec3::from_array(prod.axis);
             let occ = occlusion(pt.position, n, axis, prod.lambda, o, spheres, lut);
             let v = visible_integral(prod.log_mu, prod.lambda, occ);
-            for c in 0..3 {
-                e[c] += l.mu[c] * v;
+            for (ec, mu) in e.iter_mut().zip(l.mu) {
+                *ec += mu * v;
             }
         }
         let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
