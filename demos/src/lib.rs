@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 pub mod capture;
 pub mod export;
 pub mod measure;
+pub mod report;
 pub mod viewer;
 
 /// The project's `assets/` folder (`ENGINE_ASSETS` overrides).

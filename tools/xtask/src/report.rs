@@ -1,13 +1,18 @@
 //! `cargo xtask report`: measurement reports into out/report.
-//! `report math` is the mathematics report (report_math.rs); the rest is the speed-against-error sweep.
+//! `report math` is the mathematics report (report_math.rs); the rest is the speed-against-error sweep
+//! (demos/src/report.rs, run as the release binary `report`: `[--tiny | --sweep NAME] [--config FILE] [--out DIR]`).
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 
 mod report_math;
 
 pub fn run(args: &[String]) -> Result<()> {
     match args.first().map(String::as_str) {
         Some("math") => report_math::run(&args[1..]),
-        _ => bail!("the speed-against-error report (`cargo xtask report`) is not built yet; `cargo xtask report math` is"),
+        _ => {
+            let mut c = crate::cargo();
+            c.args(["run", "--release", "--quiet", "-p", "demos", "--bin", "report", "--"]).args(args);
+            crate::run(c)
+        }
     }
 }
