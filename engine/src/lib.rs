@@ -16,7 +16,6 @@ pub mod renderer;
 pub mod scene;
 pub mod tables;
 
-
 /// The engine's error at its outer boundary.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {

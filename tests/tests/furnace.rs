@@ -20,7 +20,10 @@ fn lambertian_plane_under_constant_environment() {
                 for c in 0..3 {
                     let v = hdr[i + c];
                     // 1 %: the irradiance map's discrete clamped-cosine sum is within 0.2 % of π.
-                    assert!((v - expected).abs() <= 0.01 * expected, "per_vertex={per_vertex} pixel ({x},{y}): {v} vs {expected}");
+                    assert!(
+                        (v - expected).abs() <= 0.01 * expected,
+                        "per_vertex={per_vertex} pixel ({x},{y}): {v} vs {expected}"
+                    );
                 }
                 checked += 1;
             }

@@ -26,14 +26,24 @@ fn bindings_are_checked_by_name() {
     let mut frame = gpu.create_frame().expect("frame");
     let err = gpu
         .run_frame(&mut frame, None, None, |rec| {
-            rec.dispatch(&pipe, &[Binding::buffer("Input", &buf), Binding::buffer("Outptu", &buf)], &4u32.to_le_bytes(), [1, 1, 1])
+            rec.dispatch(
+                &pipe,
+                &[Binding::buffer("Input", &buf), Binding::buffer("Outptu", &buf)],
+                &4u32.to_le_bytes(),
+                [1, 1, 1],
+            )
         })
         .unwrap_err()
         .to_string();
     assert!(err.contains("Output") && err.contains("not given"), "{err}");
     let err = gpu
         .run_frame(&mut frame, None, None, |rec| {
-            rec.dispatch(&pipe, &[Binding::buffer("Input", &buf), Binding::buffer("Output", &buf)], &[0u8; 8], [1, 1, 1])
+            rec.dispatch(
+                &pipe,
+                &[Binding::buffer("Input", &buf), Binding::buffer("Output", &buf)],
+                &[0u8; 8],
+                [1, 1, 1],
+            )
         })
         .unwrap_err()
         .to_string();
@@ -59,7 +69,8 @@ fn compile_errors_name_file_and_line() {
     assert!(err.contains("common/bad.glsl:2"), "{err}");
     assert!(err.contains("undefined_thing"), "{err}");
     // Warnings are errors too.
-    std::fs::write(dir.join("warn.comp"), "#version 460\nlayout(local_size_x=1) in;\nvoid main() { int x = 1.0; }\n").unwrap();
+    std::fs::write(dir.join("warn.comp"), "#version 460\nlayout(local_size_x=1) in;\nvoid main() { int x = 1.0; }\n")
+        .unwrap();
     assert!(c.compile("warn.comp", engine::gpu::ShaderStage::Compute, &[]).is_err());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -138,16 +138,24 @@ fn gpu_matches_the_f64_twin() {
         })
         .collect();
     let spheres = [Sphere::new(c.as_dvec3(), r as f64)];
-    for (spec, evaluator) in
-        [("isg:diffuse=sg,threshold=0", Evaluator::Table), ("isg:diffuse=sg,threshold=0,evaluator=paper", Evaluator::Paper)]
-    {
+    for (spec, evaluator) in [
+        ("isg:diffuse=sg,threshold=0", Evaluator::Table),
+        ("isg:diffuse=sg,threshold=0,evaluator=paper", Evaluator::Paper),
+    ] {
         let (hdr, g) = render_with_gbuffer(&gpu, &scene, spec);
         assert_finite(&hdr, spec);
         let o = IsgOptions { evaluator, diffuse: Diffuse::Sg, node_threshold: 0.0, ..IsgOptions::default() };
         let mut errs = Vec::new();
         for (i, px) in g.iter().enumerate().step_by(7) {
             let Some((p, n, 0)) = *px else { continue };
-            let pt = cpu::Point { position: p, normal: n, view: DVec3::Y, diffuse: [0.7; 3], specular: [0.0; 3], shininess: 1.0 };
+            let pt = cpu::Point {
+                position: p,
+                normal: n,
+                view: DVec3::Y,
+                diffuse: [0.7; 3],
+                specular: [0.0; 3],
+                shininess: 1.0,
+            };
             let (want, _) = cpu::shade_diffuse_and_ratio(&pt, &lobes, &o, &spheres, &lut);
             let got = rgb(&hdr, i);
             for ch in 0..3 {

@@ -51,7 +51,8 @@ fn run() -> anyhow::Result<()> {
         let (fits, errors) = fit_envmap_sgs(&small, args.k_max);
         eprintln!("{}: fitted K = 1..{} in {:.1} s", path.display(), args.k_max, t0.elapsed().as_secs_f64());
         let name = path.file_stem().and_then(|s| s.to_str()).context("file name")?.to_string();
-        plot = plot.line(format!("{name} greedy"), errors.iter().enumerate().map(|(k, e)| ((k + 1) as f64, *e)).collect());
+        plot =
+            plot.line(format!("{name} greedy"), errors.iter().enumerate().map(|(k, e)| ((k + 1) as f64, *e)).collect());
         // The refined fit (what `isg` uses) at the K of the table.
         let t0 = std::time::Instant::now();
         let refined: Vec<(f64, f64)> = ROWS
@@ -60,8 +61,12 @@ fn run() -> anyhow::Result<()> {
             .map(|&k| (k as f64, refine_envmap_sgs(&small, &fits[k - 1], REFINE_ROUNDS).1))
             .collect();
         eprintln!("{}: refined in {:.1} s", path.display(), t0.elapsed().as_secs_f64());
-        plot = plot.series(plot::Series::new(format!("{name} refined"), refined.clone(), plot::Style::LineMarkers).dashed());
-        curves.push((format!("{name} greedy"), ROWS.iter().filter(|&&k| k <= args.k_max).map(|&k| errors[k - 1]).collect::<Vec<f64>>()));
+        plot = plot
+            .series(plot::Series::new(format!("{name} refined"), refined.clone(), plot::Style::LineMarkers).dashed());
+        curves.push((
+            format!("{name} greedy"),
+            ROWS.iter().filter(|&&k| k <= args.k_max).map(|&k| errors[k - 1]).collect::<Vec<f64>>(),
+        ));
         curves.push((format!("{name} refined"), refined.iter().map(|r| r.1).collect()));
     }
     let header: Vec<&str> = curves.iter().map(|(n, _)| n.as_str()).collect();

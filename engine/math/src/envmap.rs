@@ -54,10 +54,7 @@ impl LatLongMap {
 
     /// Direction through the centre of texel (col, row).
     pub fn texel_direction(&self, col: usize, row: usize) -> [f64; 3] {
-        latlong_direction(
-            (col as f64 + 0.5) / self.width as f64,
-            (row as f64 + 0.5) / self.height as f64,
-        )
+        latlong_direction((col as f64 + 0.5) / self.width as f64, (row as f64 + 0.5) / self.height as f64)
     }
 
     /// Nearest-texel lookup.

@@ -26,7 +26,8 @@ pub fn resample(src: &LatLongMap, width: usize, height: usize) -> LatLongMap {
     if src.width == width && src.height == height {
         return src.clone();
     }
-    if src.width.is_multiple_of(width) && src.height.is_multiple_of(height) && src.width / width == src.height / height {
+    if src.width.is_multiple_of(width) && src.height.is_multiple_of(height) && src.width / width == src.height / height
+    {
         return src.downsample(src.width / width);
     }
     let mut texels = Vec::with_capacity(width * height);

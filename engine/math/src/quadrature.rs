@@ -92,12 +92,7 @@ pub fn adaptive_simpson(f: &impl Fn(f64) -> f64, a: f64, b: f64, tol: f64) -> f6
 /// ∫ over the unit sphere of f(direction), by Gauss–Legendre in cos θ (`n_theta` nodes in each of
 /// `panels` panels) and the trapezoid rule in φ (`n_phi` points; spectrally accurate for periodic f).
 /// For peaked integrands, rotate f so the peak sits at a pole and raise `panels`.
-pub fn integrate_sphere(
-    f: impl Fn([f64; 3]) -> f64,
-    n_theta: usize,
-    panels: usize,
-    n_phi: usize,
-) -> f64 {
+pub fn integrate_sphere(f: impl Fn([f64; 3]) -> f64, n_theta: usize, panels: usize, n_phi: usize) -> f64 {
     let dphi = 2.0 * PI / n_phi as f64;
     integrate_gl(
         |z| {

@@ -328,8 +328,7 @@ pub fn fit_envmap_sgs(map: &LatLongMap, k_max: usize) -> (Vec<Vec<SgRgb>>, Vec<f
     let norm2: f64 = (0..n).map(|i| wts[i] * vals[i].iter().map(|x| x * x).sum::<f64>()).sum();
     let texel_angle = PI / h as f64;
     let lambda_cap = 1.0 / (texel_angle * texel_angle);
-    let ladder: Vec<f64> =
-        (0..40).map(|j| 2f64.powf(j as f64 / 2.0 - 1.0)).filter(|&l| l <= lambda_cap).collect();
+    let ladder: Vec<f64> = (0..40).map(|j| 2f64.powf(j as f64 / 2.0 - 1.0)).filter(|&l| l <= lambda_cap).collect();
     let mut resid = vals.clone();
     let mut lobes: Vec<SgRgb> = Vec::new();
     let mut basis: Vec<Vec<f64>> = Vec::new();
@@ -431,7 +430,8 @@ fn ls_amplitudes(lobes: &[SgRgb], dirs: &[Vec3], wts: &[f64], vals: &[[f64; 3]],
     }
     let mut out = lobes.to_vec();
     for c in 0..3 {
-        let rhs: Vec<f64> = basis.iter().map(|b| b.iter().zip(wts).zip(vals).map(|((g, w), v)| w * g * v[c]).sum()).collect();
+        let rhs: Vec<f64> =
+            basis.iter().map(|b| b.iter().zip(wts).zip(vals).map(|((g, w), v)| w * g * v[c]).sum()).collect();
         for (lobe, x) in out.iter_mut().zip(solve_spd(&gram, &rhs, k)) {
             lobe.mu[c] = x;
         }
@@ -463,13 +463,15 @@ pub fn refine_envmap_sgs(map: &LatLongMap, lobes: &[SgRgb], rounds: usize) -> (V
         for i in 0..best.len() {
             let l = best[i];
             let step = (scale * 0.5 / l.lambda.max(1e-6).sqrt()).max(texel_angle).min(0.5);
-            let t1 = normalize(if l.axis[0].abs() < 0.9 { cross(l.axis, [1.0, 0.0, 0.0]) } else { cross(l.axis, [0.0, 1.0, 0.0]) });
+            let t1 = normalize(if l.axis[0].abs() < 0.9 {
+                cross(l.axis, [1.0, 0.0, 0.0])
+            } else {
+                cross(l.axis, [0.0, 1.0, 0.0])
+            });
             let t2 = cross(l.axis, t1);
             let f = 2f64.powf(0.5 * scale);
-            let mut candidates = vec![
-                SgRgb { lambda: (l.lambda * f).min(lambda_cap), ..l },
-                SgRgb { lambda: l.lambda / f, ..l },
-            ];
+            let mut candidates =
+                vec![SgRgb { lambda: (l.lambda * f).min(lambda_cap), ..l }, SgRgb { lambda: l.lambda / f, ..l }];
             for t in [t1, t2] {
                 for sgn in [1.0, -1.0] {
                     candidates.push(SgRgb { axis: normalize(add(l.axis, scale_v(t, sgn * step))), ..l });
@@ -790,9 +792,7 @@ mod tests {
         let h1 = Sg::new(a, 1e5, 1.0);
         let h2 = Sg::new(b, 1e5, 1.0);
         let lp = sg_product_log(&h1, &h2);
-        assert!(
-            lp.log_mu.is_finite() && lp.lambda.is_finite() && lp.axis.iter().all(|x| x.is_finite())
-        );
+        assert!(lp.log_mu.is_finite() && lp.lambda.is_finite() && lp.axis.iter().all(|x| x.is_finite()));
         // At the product axis, ln G1 + ln G2 = log μ (the product peaks there with value μ).
         let direct = 1e5 * dot_minus_one(lp.axis, a) + 1e5 * dot_minus_one(lp.axis, b);
         assert!((lp.log_mu - direct).abs() < 1e-9 * direct.abs(), "{} {direct}", lp.log_mu);
@@ -870,9 +870,7 @@ mod tests {
         // DESIGN §3: λ = 2.1438, μ = 1.1766, relative L2 error 0.18.
         assert!((l - 2.1438).abs() < 1e-3 && (mu - 1.1766).abs() < 1e-3, "{l} {mu}");
         assert!((COSINE_SG_LAMBDA - l).abs() < 1e-4 && (COSINE_SG_MU - mu).abs() < 1e-4);
-        let resid = |l: f64, mu: f64| {
-            sphere_axisym(|c| (c.max(0.0) - mu * (l * (c - 1.0)).exp()).powi(2), 0.05)
-        };
+        let resid = |l: f64, mu: f64| sphere_axisym(|c| (c.max(0.0) - mu * (l * (c - 1.0)).exp()).powi(2), 0.05);
         let norm2 = 2.0 * PI / 3.0;
         let q_err = (resid(l, mu) / norm2).sqrt();
         // The closed-form residual vs quadrature of the kinked integrand (kink at c = 0 sits on a
@@ -960,21 +958,14 @@ mod tests {
             assert!((norm - 1.0).abs() < 1e-6, "{ndf:?} {norm}");
             let resid = |l: f64, mu: f64| {
                 2.0 * PI
-                    * adaptive_simpson(
-                        &|c: f64| (ndf.eval(c, a) - mu * (l * (c - 1.0)).exp()).powi(2),
-                        0.0,
-                        1.0,
-                        1e-10,
-                    )
+                    * adaptive_simpson(&|c: f64| (ndf.eval(c, a) - mu * (l * (c - 1.0)).exp()).powi(2), 0.0, 1.0, 1e-10)
             };
             for &(dl, dm) in &[(1.03, 1.0), (0.97, 1.0), (1.0, 1.03), (1.0, 0.97)] {
                 assert!(resid(l * dl, mu * dm) > resid(l, mu), "{ndf:?} α={a}");
             }
             if ndf == Ndf::Beckmann {
                 // Small roughness: Beckmann ≈ exp(−2(1 − cos)/α²)/(πα²), the classic lobe.
-                assert!(
-                    (l * a * a / 2.0 - 1.0).abs() < 0.05 && (mu * PI * a * a - 1.0).abs() < 0.05
-                );
+                assert!((l * a * a / 2.0 - 1.0).abs() < 0.05 && (mu * PI * a * a - 1.0).abs() < 0.05);
             }
         }
     }

@@ -75,17 +75,10 @@ pub fn norm(a: &[f64]) -> f64 {
 /// `Q_l^m = a_lm (z Q_{l-1}^m − b_lm Q_{l-2}^m)`, `a_lm = √((4l²−1)/(l²−m²))`,
 /// `b_lm = √(((l−1)²−m²)/(4(l−1)²−1))`.
 pub fn eval_basis(n: usize, d: [f64; 3], out: &mut [f64]) {
-    assert!(
-        (1..=MAX_ORDER).contains(&n),
-        "SH order {n} outside 1..={MAX_ORDER}"
-    );
+    assert!((1..=MAX_ORDER).contains(&n), "SH order {n} outside 1..={MAX_ORDER}");
     assert!(out.len() >= n * n);
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    let (x, y, z) = if len > 0.0 && len.is_finite() {
-        (d[0] / len, d[1] / len, d[2] / len)
-    } else {
-        (0.0, 0.0, 1.0)
-    };
+    let (x, y, z) = if len > 0.0 && len.is_finite() { (d[0] / len, d[1] / len, d[2] / len) } else { (0.0, 0.0, 1.0) };
     let mut qmm = 1.0 / SQRT_4PI; // Q_0^0
     let (mut cm, mut sm) = (1.0, 0.0); // (x + i y)^0
     for m in 0..n {
@@ -106,9 +99,7 @@ pub fn eval_basis(n: usize, d: [f64; 3], out: &mut [f64]) {
             } else {
                 let lf = l as f64;
                 let a = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
-                let b = (((lf - 1.0) * (lf - 1.0) - mf * mf)
-                    / (4.0 * (lf - 1.0) * (lf - 1.0) - 1.0))
-                    .sqrt();
+                let b = (((lf - 1.0) * (lf - 1.0) - mf * mf) / (4.0 * (lf - 1.0) * (lf - 1.0) - 1.0)).sqrt();
                 a * (z * q_lm1 - b * q_lm2)
             };
             if l > m {
@@ -236,12 +227,7 @@ pub fn project_latlong(map: &LatLongMap, n: usize, window: Window) -> [Vec<f64>;
 /// Project a function onto order-`n` SH with a product rule: `n_theta` Gauss–Legendre nodes in
 /// `z` and `n_phi` equispaced angles. Exact for polynomials of degree `< min(2 n_theta, n_phi)`
 /// restricted to the sphere; for discontinuous `f` it converges slowly (use the closed forms).
-pub fn project_function(
-    n: usize,
-    f: impl Fn([f64; 3]) -> f64,
-    n_theta: usize,
-    n_phi: usize,
-) -> Vec<f64> {
+pub fn project_function(n: usize, f: impl Fn([f64; 3]) -> f64, n_theta: usize, n_phi: usize) -> Vec<f64> {
     let (zs, ws) = gauss_legendre(n_theta);
     let mut out = vec![0.0; n * n];
     let mut y = vec![0.0; n * n];
@@ -274,17 +260,11 @@ fn factorial(k: i64) -> f64 {
 /// For `j ≤ 7` (order 8) every factorial is below 23! ≈ 2.6e22 and the alternating sum has at
 /// most 8 terms, so f64 keeps ~1e-15 relative accuracy.
 pub fn wigner_3j(j1: i64, j2: i64, j3: i64, m1: i64, m2: i64, m3: i64) -> f64 {
-    if m1 + m2 + m3 != 0
-        || j3 < (j1 - j2).abs()
-        || j3 > j1 + j2
-        || m1.abs() > j1
-        || m2.abs() > j2
-        || m3.abs() > j3
-    {
+    if m1 + m2 + m3 != 0 || j3 < (j1 - j2).abs() || j3 > j1 + j2 || m1.abs() > j1 || m2.abs() > j2 || m3.abs() > j3 {
         return 0.0;
     }
-    let delta = factorial(j1 + j2 - j3) * factorial(j1 - j2 + j3) * factorial(-j1 + j2 + j3)
-        / factorial(j1 + j2 + j3 + 1);
+    let delta =
+        factorial(j1 + j2 - j3) * factorial(j1 - j2 + j3) * factorial(-j1 + j2 + j3) / factorial(j1 + j2 + j3 + 1);
     let pre = (delta
         * factorial(j1 + m1)
         * factorial(j1 - m1)
@@ -305,11 +285,7 @@ pub fn wigner_3j(j1: i64, j2: i64, j3: i64, m1: i64, m2: i64, m3: i64) -> f64 {
             * factorial(j2 - k + m2);
         sum += if k % 2 == 0 { 1.0 } else { -1.0 } / den;
     }
-    let sign = if (j1 - j2 - m3).rem_euclid(2) == 0 {
-        1.0
-    } else {
-        -1.0
-    };
+    let sign = if (j1 - j2 - m3).rem_euclid(2) == 0 { 1.0 } else { -1.0 };
     sign * pre * sum
 }
 
@@ -320,9 +296,7 @@ pub fn gaunt_complex(l1: i64, m1: i64, l2: i64, m2: i64, l3: i64, m3: i64) -> f6
     if w0 == 0.0 {
         return 0.0;
     }
-    (((2 * l1 + 1) * (2 * l2 + 1) * (2 * l3 + 1)) as f64 / (4.0 * PI)).sqrt()
-        * w0
-        * wigner_3j(l1, l2, l3, m1, m2, m3)
+    (((2 * l1 + 1) * (2 * l2 + 1) * (2 * l3 + 1)) as f64 / (4.0 * PI)).sqrt() * w0 * wigner_3j(l1, l2, l3, m1, m2, m3)
 }
 
 /// The real basis function (l, m) as a combination of complex `Y_lμ` (with Condon–Shortley phase):
@@ -348,11 +322,7 @@ pub fn gaunt_real_parts(i: usize, j: usize, k: usize) -> (f64, f64) {
     let (l2, m2) = sh_lm(j);
     let (l3, m3) = sh_lm(k);
     let (l1, l2, l3) = (l1 as i64, l2 as i64, l3 as i64);
-    let (c1, c2, c3) = (
-        real_to_complex(m1 as i64),
-        real_to_complex(m2 as i64),
-        real_to_complex(m3 as i64),
-    );
+    let (c1, c2, c3) = (real_to_complex(m1 as i64), real_to_complex(m2 as i64), real_to_complex(m3 as i64));
     let (mut re, mut im) = (0.0, 0.0);
     for &(mu1, r1, i1) in &c1 {
         for &(mu2, r2, i2) in &c2 {
@@ -436,10 +406,7 @@ impl ShTensor {
     /// Build from Gaunt coefficients, keeping the entries allowed by the selection rules whose
     /// value is not an accidental zero.
     pub fn new(n: usize) -> Self {
-        assert!(
-            (1..=MAX_ORDER).contains(&n),
-            "SH order {n} outside 1..={MAX_ORDER}"
-        );
+        assert!((1..=MAX_ORDER).contains(&n), "SH order {n} outside 1..={MAX_ORDER}");
         let c = n * n;
         let mut entries = Vec::new();
         for i in 0..c {
@@ -451,12 +418,7 @@ impl ShTensor {
                     let g = gaunt_real(i, j, k);
                     if g.abs() > GAUNT_ZERO {
                         let v = if j == k { 0.5 * g } else { g };
-                        entries.push(TensorEntry {
-                            i: i as u16,
-                            j: j as u16,
-                            k: k as u16,
-                            v,
-                        });
+                        entries.push(TensorEntry { i: i as u16, j: j as u16, k: k as u16, v });
                     }
                 }
             }
@@ -476,19 +438,19 @@ impl ShTensor {
     /// Number of nonzero ordered triples `(i, j, k)` (DESIGN §3: 1, 10, 83, 353, 1158, 2907,
     /// 6460, 12868 for n = 1..8).
     pub fn ordered_nonzero_count(&self) -> usize {
-        self.entries
-            .iter()
-            .map(|e| if e.j == e.k { 1 } else { 2 })
-            .sum()
+        self.entries.iter().map(|e| if e.j == e.k { 1 } else { 2 }).sum()
     }
 
     /// `Γ_ijk` (any order of indices), by search; for tests and tools, not inner loops.
     pub fn get(&self, i: usize, j: usize, k: usize) -> f64 {
         let (j, k) = if j <= k { (j, k) } else { (k, j) };
-        self.entries
-            .iter()
-            .find(|e| e.i as usize == i && e.j as usize == j && e.k as usize == k)
-            .map_or(0.0, |e| if j == k { 2.0 * e.v } else { e.v })
+        self.entries.iter().find(|e| e.i as usize == i && e.j as usize == j && e.k as usize == k).map_or(0.0, |e| {
+            if j == k {
+                2.0 * e.v
+            } else {
+                e.v
+            }
+        })
     }
 
     /// SH product `(a * b)_i = Σ_jk Γ_ijk a_j b_k` (paper Eq. 3), written into `out[..n²]`.
@@ -550,11 +512,7 @@ impl ShTensor {
 /// Scaled zonal coefficients `f*_l = f_l √(4π/(2l+1))` (paper Sec. 6.1), where `f_l` is the
 /// coefficient of `y_l0` of a function symmetric about +z.
 pub fn zonal_star(zonal: &[f64]) -> Vec<f64> {
-    zonal
-        .iter()
-        .enumerate()
-        .map(|(l, f)| f / zonal_norm(l))
-        .collect()
+    zonal.iter().enumerate().map(|(l, f)| f / zonal_norm(l)).collect()
 }
 
 /// Rotate a zonal function with scaled coefficients `f*_l` from +z to `axis`:
@@ -585,11 +543,7 @@ pub fn circle_visibility_zonal(n: usize, theta: f64) -> Vec<f64> {
     let c = theta.clamp(0.0, PI).cos();
     (0..n)
         .map(|l| {
-            let cap = if l == 0 {
-                1.0 - c
-            } else {
-                (legendre_p(l - 1, c) - legendre_p(l + 1, c)) / (2 * l + 1) as f64
-            };
+            let cap = if l == 0 { 1.0 - c } else { (legendre_p(l - 1, c) - legendre_p(l + 1, c)) / (2 * l + 1) as f64 };
             let full = if l == 0 { SQRT_4PI } else { 0.0 };
             full - 2.0 * PI * zonal_norm(l) * cap
         })
@@ -661,10 +615,7 @@ pub fn q_prime(x: f64) -> f64 {
 
 /// The clip threshold `ε = max(0.02 λ_max, 1e-6)` applied to eigenvalues `λ` (paper Eq. 32).
 pub fn log_clip_threshold(eigenvalues: &[f64]) -> f64 {
-    let max = eigenvalues
-        .iter()
-        .cloned()
-        .fold(f64::NEG_INFINITY, f64::max);
+    let max = eigenvalues.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     (LOG_CLIP_RELATIVE * max).max(LOG_CLIP_ABSOLUTE)
 }
 
@@ -774,17 +725,11 @@ impl CircleLogTable {
     /// Interpolated `f*_l(θ)`.
     pub fn lookup(&self, theta: f64) -> Vec<f64> {
         let n = self.n;
-        let t = if theta.is_finite() {
-            theta.clamp(0.0, 0.5 * PI)
-        } else {
-            0.5 * PI
-        };
+        let t = if theta.is_finite() { theta.clamp(0.0, 0.5 * PI) } else { 0.5 * PI };
         let x = t / (0.5 * PI) * (CIRCLE_TABLE_SAMPLES - 1) as f64;
         let s0 = (x.floor() as usize).min(CIRCLE_TABLE_SAMPLES - 2);
         let w = x - s0 as f64;
-        (0..n)
-            .map(|l| self.fstar[s0 * n + l] * (1.0 - w) + self.fstar[(s0 + 1) * n + l] * w)
-            .collect()
+        (0..n).map(|l| self.fstar[s0 * n + l] * (1.0 - w) + self.fstar[(s0 + 1) * n + l] * w).collect()
     }
 
     /// Log-visibility vector of a circle of angular radius `θ` about `axis` (paper Eq. 34).
@@ -803,11 +748,7 @@ impl CircleLogTable {
         if r <= 0.0 || !r.is_finite() {
             return vec![0.0; self.n * self.n];
         }
-        let theta = if dist <= r {
-            0.5 * PI
-        } else {
-            (r / dist).asin()
-        };
+        let theta = if dist <= r { 0.5 * PI } else { (r / dist).asin() };
         self.log_visibility(theta, d)
     }
 }
@@ -872,15 +813,12 @@ mod tests {
             for l in 0..MAX_ORDER {
                 for m in -(l as i32)..=(l as i32) {
                     let am = m.unsigned_abs() as usize;
-                    let k = ((2 * l + 1) as f64 / (4.0 * PI) * factorial((l - am) as i64)
-                        / factorial((l + am) as i64))
-                    .sqrt();
+                    let k = ((2 * l + 1) as f64 / (4.0 * PI) * factorial((l - am) as i64) / factorial((l + am) as i64))
+                        .sqrt();
                     let p = assoc_legendre_explicit(l, am, theta.cos());
                     let v = match m.cmp(&0) {
                         std::cmp::Ordering::Equal => k * p,
-                        std::cmp::Ordering::Greater => {
-                            2f64.sqrt() * k * p * (am as f64 * phi).cos()
-                        }
+                        std::cmp::Ordering::Greater => 2f64.sqrt() * k * p * (am as f64 * phi).cos(),
                         std::cmp::Ordering::Less => 2f64.sqrt() * k * p * (am as f64 * phi).sin(),
                     };
                     // The explicit sum cancels terms up to ~C(14,7)·2^-7 ≈ 27: allow 1e-12.
@@ -909,11 +847,7 @@ mod tests {
             for j in 0..c {
                 let want = if i == j { 1.0 } else { 0.0 };
                 // Exact quadrature: only rounding remains.
-                assert!(
-                    (gram[i * c + j] - want).abs() < 1e-12,
-                    "({i},{j}) {}",
-                    gram[i * c + j]
-                );
+                assert!((gram[i * c + j] - want).abs() < 1e-12, "({i},{j}) {}", gram[i * c + j]);
             }
         }
         // And with the module's independent sphere integrator, for a few pairs.
@@ -941,10 +875,7 @@ mod tests {
             for m1 in -j1..=j1 {
                 s += wigner_3j(j1, j2, j3, m1, -m1 - m3, m3).powi(2);
             }
-            assert!(
-                (s - 1.0 / (2 * j3 + 1) as f64).abs() < 1e-14,
-                "{j1} {j2} {j3}: {s}"
-            );
+            assert!((s - 1.0 / (2 * j3 + 1) as f64).abs() < 1e-14, "{j1} {j2} {j3}: {s}");
         }
     }
 
@@ -959,10 +890,7 @@ mod tests {
             let r = (1.0 - z * z).sqrt();
             for k in 0..nphi {
                 let phi = (k as f64 + 0.5) * 2.0 * PI / nphi as f64;
-                pts.push((
-                    w * 2.0 * PI / nphi as f64,
-                    eval(n, [r * phi.cos(), r * phi.sin(), *z]),
-                ));
+                pts.push((w * 2.0 * PI / nphi as f64, eval(n, [r * phi.cos(), r * phi.sin(), *z])));
             }
         }
         let mut g = vec![0.0; c * c * c];
@@ -970,14 +898,7 @@ mod tests {
             for j in i..c {
                 for k in j..c {
                     let v: f64 = pts.iter().map(|(w, y)| w * y[i] * y[j] * y[k]).sum();
-                    for (a, b, d) in [
-                        (i, j, k),
-                        (i, k, j),
-                        (j, i, k),
-                        (j, k, i),
-                        (k, i, j),
-                        (k, j, i),
-                    ] {
+                    for (a, b, d) in [(i, j, k), (i, k, j), (j, i, k), (j, k, i), (k, i, j), (k, j, i)] {
                         g[(a * c + b) * c + d] = v;
                     }
                 }
@@ -993,17 +914,9 @@ mod tests {
         let quad = gamma_by_quadrature(MAX_ORDER);
         let cmax = MAX_ORDER * MAX_ORDER;
         for n in 1..=MAX_ORDER {
-            assert_eq!(
-                selection_rule_count(n),
-                want_allowed[n - 1],
-                "allowed, n={n}"
-            );
+            assert_eq!(selection_rule_count(n), want_allowed[n - 1], "allowed, n={n}");
             let t = ShTensor::new(n);
-            assert_eq!(
-                t.ordered_nonzero_count(),
-                want_nonzero[n - 1],
-                "nonzero (Gaunt), n={n}"
-            );
+            assert_eq!(t.ordered_nonzero_count(), want_nonzero[n - 1], "nonzero (Gaunt), n={n}");
             // Independent count from quadrature alone: |Γ| above 1e-10 (rounding is ~1e-16,
             // the smallest true value at n = 8 is > 1e-3).
             let c = n * n;
@@ -1020,11 +933,7 @@ mod tests {
                     }
                 }
             }
-            assert_eq!(
-                quad_nonzero,
-                want_nonzero[n - 1],
-                "nonzero (quadrature), n={n}"
-            );
+            assert_eq!(quad_nonzero, want_nonzero[n - 1], "nonzero (quadrature), n={n}");
         }
         // Values: every stored entry, and the imaginary part of the real conversion, at n = 8.
         let t = ShTensor::new(MAX_ORDER);
@@ -1048,12 +957,7 @@ mod tests {
             let a: Vec<f64> = (0..c).map(|_| rng.uniform(-1.0, 1.0)).collect();
             let b: Vec<f64> = (0..c).map(|_| rng.uniform(-1.0, 1.0)).collect();
             // Independent: project the pointwise product of reconstructions (degree 2n−2, exact).
-            let want = project_function(
-                n,
-                |d| reconstruct(n, &a, d) * reconstruct(n, &b, d),
-                2 * n,
-                4 * n,
-            );
+            let want = project_function(n, |d| reconstruct(n, &a, d) * reconstruct(n, &b, d), 2 * n, 4 * n);
             let got = t.product(&a, &b);
             let sq = t.square(&a);
             let want_sq = project_function(n, |d| reconstruct(n, &a, d).powi(2), 2 * n, 4 * n);
@@ -1087,11 +991,7 @@ mod tests {
         let n = 6;
         let mut rng = Pcg32::new(11, 2);
         let zonal: Vec<f64> = (0..n)
-            .map(|l| {
-                2.0 * PI
-                    * zonal_norm(l)
-                    * integrate_gl(|z| z.exp() * legendre_p(l, z), -1.0, 1.0, 20, 1)
-            })
+            .map(|l| 2.0 * PI * zonal_norm(l) * integrate_gl(|z| z.exp() * legendre_p(l, z), -1.0, 1.0, 20, 1))
             .collect();
         for _ in 0..4 {
             let axis = rng.unit_vector();
@@ -1100,12 +1000,7 @@ mod tests {
             let want = project_function(n, f, 24, 48);
             for i in 0..n * n {
                 // exp is entire: 24 GL nodes × 48 angles converge to ~1e-15.
-                assert!(
-                    (got[i] - want[i]).abs() < 1e-12,
-                    "i={i}: {} vs {}",
-                    got[i],
-                    want[i]
-                );
+                assert!((got[i] - want[i]).abs() < 1e-12, "i={i}: {} vs {}", got[i], want[i]);
             }
         }
     }
@@ -1140,10 +1035,7 @@ mod tests {
         let h = irradiance_weighting(n, nrm);
         // max(s·N, 0) has a kink: rotate so N = +z and integrate z ∈ [0, 1] exactly.
         let zonal: Vec<f64> = (0..n)
-            .map(|l| {
-                2.0 * PI * zonal_norm(l) * integrate_gl(|z| z * legendre_p(l, z), 0.0, 1.0, 8, 1)
-                    / PI
-            })
+            .map(|l| 2.0 * PI * zonal_norm(l) * integrate_gl(|z| z * legendre_p(l, z), 0.0, 1.0, 8, 1) / PI)
             .collect();
         let want = zh_rotate(&zonal, nrm);
         for i in 0..n * n {
@@ -1163,9 +1055,7 @@ mod tests {
         // O(h²) error ≈ (π/128)²/24 × |f''| ~ 1e-4 relative: tolerance 1e-3.
         let n = 4;
         let (w, h) = (256, 128);
-        let coeffs: Vec<f64> = (0..16)
-            .map(|i| 0.2 + 0.05 * i as f64 * if i % 2 == 0 { 1.0 } else { -1.0 })
-            .collect();
+        let coeffs: Vec<f64> = (0..16).map(|i| 0.2 + 0.05 * i as f64 * if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
         let mut map = LatLongMap::constant(w, h, [0.0; 3]);
         for row in 0..h {
             for col in 0..w {
@@ -1176,12 +1066,7 @@ mod tests {
         }
         let p = project_latlong(&map, n, Window::None);
         for i in 0..16 {
-            assert!(
-                (p[0][i] - coeffs[i]).abs() < 1e-3,
-                "i={i}: {} vs {}",
-                p[0][i],
-                coeffs[i]
-            );
+            assert!((p[0][i] - coeffs[i]).abs() < 1e-3, "i={i}: {} vs {}", p[0][i], coeffs[i]);
             assert!((p[1][i] - 2.0 * coeffs[i]).abs() < 2e-3);
             let want = if i == 0 { SQRT_4PI } else { 0.0 };
             assert!((p[2][i] - want).abs() < 1e-3);
@@ -1191,10 +1076,7 @@ mod tests {
         let a3 = (PI * 3.0 / 16.0).cos();
         assert!((pw[0][9] - a3 * p[0][9]).abs() < 1e-12);
         assert!((pw[0][0] - p[0][0]).abs() < 1e-15);
-        assert!(Window::Lanczos
-            .band_factors(4)
-            .iter()
-            .all(|a| (0.0..=1.0).contains(a)));
+        assert!(Window::Lanczos.band_factors(4).iter().all(|a| (0.0..=1.0).contains(a)));
     }
 
     #[test]
@@ -1248,20 +1130,14 @@ mod tests {
             let got = table.lookup(theta);
             let want = zonal_star(&circle_log_zonal(&t, theta));
             for l in 0..3 {
-                assert!(
-                    (got[l] - want[l]).abs() < 1e-3 * (1.0 + want[l].abs()),
-                    "s={s} l={l}"
-                );
+                assert!((got[l] - want[l]).abs() < 1e-3 * (1.0 + want[l].abs()), "s={s} l={l}");
             }
         }
         // Receiver inside the sphere → half-space; zero radius → no blocking.
         let inside = table.sphere_log_visibility([0.0; 3], [0.1, 0.0, 0.0], 1.0);
         let half = table.log_visibility(0.5 * PI, [1.0, 0.0, 0.0]);
         assert_eq!(inside, half);
-        assert!(table
-            .sphere_log_visibility([0.0; 3], [1.0, 0.0, 0.0], 0.0)
-            .iter()
-            .all(|v| *v == 0.0));
+        assert!(table.sphere_log_visibility([0.0; 3], [1.0, 0.0, 0.0], 0.0).iter().all(|v| *v == 0.0));
         assert!(table.lookup(f64::NAN).iter().all(|v| v.is_finite()));
     }
 }

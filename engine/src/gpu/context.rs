@@ -174,14 +174,14 @@ impl Gpu {
 
         // SAFETY: plain enumeration calls on a loaded entry.
         let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
-        let has_validation = layers
-            .iter()
-            .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+        let has_validation = layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
         let validation = match desc.validation {
             ValidationMode::Off => false,
             ValidationMode::IfAvailable => {
                 if !has_validation {
-                    log::warn!("validation layer not installed (apt-get install vulkan-validationlayers): running without it");
+                    log::warn!(
+                        "validation layer not installed (apt-get install vulkan-validationlayers): running without it"
+                    );
                 }
                 has_validation
             }
@@ -196,9 +196,7 @@ impl Gpu {
         };
 
         let app_name = CString::new("softshadows").unwrap_or_default();
-        let app = vk::ApplicationInfo::default()
-            .application_name(&app_name)
-            .api_version(vk::API_VERSION_1_3);
+        let app = vk::ApplicationInfo::default().application_name(&app_name).api_version(vk::API_VERSION_1_3);
         let mut ext_names: Vec<*const i8> = desc.surface_extensions.iter().map(|e| e.as_ptr()).collect();
         if validation {
             ext_names.push(ext::debug_utils::NAME.as_ptr());
@@ -302,9 +300,9 @@ impl Gpu {
                 rejected.push(format!("{name}: no VK_KHR_swapchain"));
                 continue;
             }
-            let family = families.iter().position(|f| {
-                f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
-            });
+            let family = families
+                .iter()
+                .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE));
             let Some(family) = family else {
                 rejected.push(format!("{name}: no graphics+compute queue"));
                 continue;
@@ -324,9 +322,7 @@ impl Gpu {
                         p.device_name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default()
                     })
                     .collect();
-                fail!(GpuError::NoDevice(format!(
-                    "no adapter matches --device {want:?}; adapters present: {names:?}"
-                )));
+                fail!(GpuError::NoDevice(format!("no adapter matches --device {want:?}; adapters present: {names:?}")));
             }
         }
         candidates.sort_by_key(|c| type_rank(c.1.device_type));
@@ -339,9 +335,8 @@ impl Gpu {
         };
 
         let priorities = [1.0f32];
-        let queue_info = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&priorities)];
+        let queue_info =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
         let mut dev_exts = vec![khr::push_descriptor::NAME.as_ptr()];
         if windowed {
             dev_exts.push(khr::swapchain::NAME.as_ptr());

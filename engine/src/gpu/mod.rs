@@ -19,8 +19,8 @@ pub use pipeline::{Binding, ComputePipeline, GraphicsPipeline, GraphicsPipelineD
 pub use recorder::{Frame, PassTiming, Recorder};
 pub use resources::{Buffer, BufferDesc, Image, ImageDesc, ImageFormat, Memory};
 pub use shader::{ShaderCompiler, ShaderModuleInfo, ShaderStage};
-pub use swapchain::{surface_extensions, Swapchain, SwapchainImage};
 pub use spirv::{DescriptorKind, ReflectedBinding, Reflection};
+pub use swapchain::{surface_extensions, Swapchain, SwapchainImage};
 
 /// Errors of the GPU layer.
 #[derive(Debug, thiserror::Error)]

@@ -83,7 +83,10 @@ impl PipelineCore {
                     Some(x) if x.name != b.name || x.kind != b.kind => {
                         return Err(GpuError::Binding {
                             pipeline: name.into(),
-                            message: format!("binding {} is '{}' in one stage and '{}' in another", b.binding, x.name, b.name),
+                            message: format!(
+                                "binding {} is '{}' in one stage and '{}' in another",
+                                b.binding, x.name, b.name
+                            ),
                         })
                     }
                     Some(_) => {}
@@ -160,7 +163,13 @@ impl PipelineCore {
         Ok(())
     }
 
-    pub(crate) fn push_descriptors(&self, gpu: &Gpu, cmd: vk::CommandBuffer, bind_point: vk::PipelineBindPoint, given: &[Binding]) {
+    pub(crate) fn push_descriptors(
+        &self,
+        gpu: &Gpu,
+        cmd: vk::CommandBuffer,
+        bind_point: vk::PipelineBindPoint,
+        given: &[Binding],
+    ) {
         let mut buffer_infos = Vec::with_capacity(self.bindings.len());
         let mut image_infos = Vec::with_capacity(self.bindings.len());
         for b in &self.bindings {
@@ -272,7 +281,15 @@ impl Gpu {
             unsafe { self.device.destroy_shader_module(module, None) };
             r.map(|p| p[0]).map_err(|(_, e)| GpuError::Vk { call: "vkCreateComputePipelines", result: e })
         });
-        let core = PipelineCore { name: path.into(), raw: vk::Pipeline::null(), layout, set_layout, bindings, push_size, stages };
+        let core = PipelineCore {
+            name: path.into(),
+            raw: vk::Pipeline::null(),
+            layout,
+            set_layout,
+            bindings,
+            push_size,
+            stages,
+        };
         match raw {
             Ok(raw) => {
                 self.set_name(raw, path);
@@ -291,7 +308,15 @@ impl Gpu {
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let name = format!("{}+{}", desc.vertex, desc.fragment);
         let (set_layout, layout, bindings, push_size) = PipelineCore::layouts(self, &name, &[&vs, &fs], stages)?;
-        let core = PipelineCore { name: name.clone(), raw: vk::Pipeline::null(), layout, set_layout, bindings, push_size, stages };
+        let core = PipelineCore {
+            name: name.clone(),
+            raw: vk::Pipeline::null(),
+            layout,
+            set_layout,
+            bindings,
+            push_size,
+            stages,
+        };
         let modules = create_module(self, &vs).and_then(|v| match create_module(self, &fs) {
             Ok(f) => Ok((v, f)),
             Err(e) => {

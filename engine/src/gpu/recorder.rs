@@ -160,9 +160,7 @@ impl Recorder<'_> {
             .dst_access_mask(vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE)];
         // SAFETY: cmd is recording.
         unsafe {
-            self.gpu
-                .device
-                .cmd_pipeline_barrier2(self.frame.cmd, &vk::DependencyInfo::default().memory_barriers(&b))
+            self.gpu.device.cmd_pipeline_barrier2(self.frame.cmd, &vk::DependencyInfo::default().memory_barriers(&b))
         };
     }
 
@@ -206,7 +204,14 @@ impl Recorder<'_> {
         };
     }
 
-    fn push_constants(&self, layout: vk::PipelineLayout, stages: vk::ShaderStageFlags, size: u32, push: &[u8], name: &str) -> Result<()> {
+    fn push_constants(
+        &self,
+        layout: vk::PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        size: u32,
+        push: &[u8],
+        name: &str,
+    ) -> Result<()> {
         if push.len() as u32 != size {
             return Err(GpuError::Binding {
                 pipeline: name.into(),
@@ -221,7 +226,13 @@ impl Recorder<'_> {
     }
 
     /// Dispatch enough workgroups to cover `invocations` (x, y, z) threads.
-    pub fn dispatch(&mut self, pipe: &ComputePipeline, bindings: &[Binding], push: &[u8], invocations: [u32; 3]) -> Result<()> {
+    pub fn dispatch(
+        &mut self,
+        pipe: &ComputePipeline,
+        bindings: &[Binding],
+        push: &[u8],
+        invocations: [u32; 3],
+    ) -> Result<()> {
         let core = &pipe.core;
         core.check_bindings(bindings)?;
         let ls = pipe.local_size.map(|v| v.max(1));

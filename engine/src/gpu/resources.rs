@@ -271,10 +271,8 @@ impl Gpu {
                 return Err(e);
             }
         };
-        let range = vk::ImageSubresourceRange::default()
-            .aspect_mask(desc.format.aspect())
-            .level_count(1)
-            .layer_count(1);
+        let range =
+            vk::ImageSubresourceRange::default().aspect_mask(desc.format.aspect()).level_count(1).layer_count(1);
         // SAFETY: memory from the allocator fits raw's requirements; the view matches the image.
         let view = unsafe {
             self.device
@@ -329,8 +327,7 @@ impl Gpu {
         let barriers = [barrier];
         // SAFETY: cmd is recording; image is alive.
         unsafe {
-            self.device
-                .cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&barriers))
+            self.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&barriers))
         };
     }
 
@@ -348,9 +345,7 @@ impl Gpu {
     fn image_copy_region(image: &Image) -> vk::BufferImageCopy {
         vk::BufferImageCopy::default()
             .image_subresource(
-                vk::ImageSubresourceLayers::default()
-                    .aspect_mask(image.desc.format.aspect())
-                    .layer_count(1),
+                vk::ImageSubresourceLayers::default().aspect_mask(image.desc.format.aspect()).layer_count(1),
             )
             .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 })
     }
@@ -369,7 +364,13 @@ impl Gpu {
                 let region = Self::image_copy_region(&image);
                 // SAFETY: buffer and image alive until the wait; image in GENERAL.
                 unsafe {
-                    self.device.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, vk::ImageLayout::GENERAL, &[region])
+                    self.device.cmd_copy_buffer_to_image(
+                        cmd,
+                        staging.raw,
+                        image.raw,
+                        vk::ImageLayout::GENERAL,
+                        &[region],
+                    )
                 };
             })
         });
@@ -396,9 +397,14 @@ impl Gpu {
                 let region = Self::image_copy_region(image);
                 // SAFETY: buffer and image alive until the wait; image in GENERAL.
                 unsafe {
-                    self.device
-                        .cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&barrier));
-                    self.device.cmd_copy_image_to_buffer(cmd, image.raw, vk::ImageLayout::GENERAL, readback.raw, &[region])
+                    self.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&barrier));
+                    self.device.cmd_copy_image_to_buffer(
+                        cmd,
+                        image.raw,
+                        vk::ImageLayout::GENERAL,
+                        readback.raw,
+                        &[region],
+                    )
                 };
             })
             .and_then(|_| readback.read::<u8>());

@@ -73,10 +73,8 @@ impl ShaderCompiler {
             return Ok(());
         }
         seen.push(canon);
-        let text = std::fs::read_to_string(&path).map_err(|e| GpuError::Shader {
-            path: path.display().to_string(),
-            message: format!("cannot read: {e}"),
-        })?;
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| GpuError::Shader { path: path.display().to_string(), message: format!("cannot read: {e}") })?;
         text.hash(h);
         let dir = Path::new(rel).parent().unwrap_or(Path::new(""));
         for line in text.lines() {
@@ -123,8 +121,7 @@ impl ShaderCompiler {
                 words
             }
         };
-        let reflection =
-            reflect(&spirv).map_err(|message| GpuError::Shader { path: rel.to_string(), message })?;
+        let reflection = reflect(&spirv).map_err(|message| GpuError::Shader { path: rel.to_string(), message })?;
         let info = ShaderModuleInfo { path: rel.to_string(), spirv, reflection };
         if let Ok(mut m) = self.memory.lock() {
             m.insert(key, info.clone());
@@ -134,12 +131,10 @@ impl ShaderCompiler {
 
     fn compile_uncached(&self, rel: &str, stage: ShaderStage, defines: &[(&str, &str)]) -> Result<Vec<u32>> {
         let path = self.root.join(rel);
-        let source = std::fs::read_to_string(&path).map_err(|e| GpuError::Shader {
-            path: path.display().to_string(),
-            message: format!("cannot read: {e}"),
-        })?;
-        let mut options = shaderc::CompileOptions::new()
-            .map_err(|e| GpuError::Other(format!("shaderc options: {e}")))?;
+        let source = std::fs::read_to_string(&path)
+            .map_err(|e| GpuError::Shader { path: path.display().to_string(), message: format!("cannot read: {e}") })?;
+        let mut options =
+            shaderc::CompileOptions::new().map_err(|e| GpuError::Other(format!("shaderc options: {e}")))?;
         options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_3 as u32);
         options.set_target_spirv(shaderc::SpirvVersion::V1_6);
         options.set_source_language(shaderc::SourceLanguage::GLSL);
@@ -158,22 +153,21 @@ impl ShaderCompiler {
             let rel = normalize(&base.join(requested));
             let full = root.join(&rel);
             match std::fs::read_to_string(&full) {
-                Ok(content) => Ok(shaderc::ResolvedInclude {
-                    resolved_name: rel.to_string_lossy().into_owned(),
-                    content,
-                }),
+                Ok(content) => {
+                    Ok(shaderc::ResolvedInclude { resolved_name: rel.to_string_lossy().into_owned(), content })
+                }
                 Err(e) => Err(format!("cannot include \"{requested}\" ({}): {e}", full.display())),
             }
         });
-        let artifact = self
-            .compiler
-            .compile_into_spirv(&source, stage.kind(), rel, "main", Some(&options))
-            .map_err(|e| GpuError::Shader {
-                path: rel.to_string(),
-                message: match e {
-                    shaderc::Error::CompilationError(_, msg) => msg.trim_end().to_string(),
-                    other => other.to_string(),
-                },
+        let artifact =
+            self.compiler.compile_into_spirv(&source, stage.kind(), rel, "main", Some(&options)).map_err(|e| {
+                GpuError::Shader {
+                    path: rel.to_string(),
+                    message: match e {
+                        shaderc::Error::CompilationError(_, msg) => msg.trim_end().to_string(),
+                        other => other.to_string(),
+                    },
+                }
             })?;
         Ok(artifact.as_binary().to_vec())
     }

@@ -35,7 +35,9 @@ enum Ty {
     Array(u32, u32),
     RuntimeArray,
     Struct(Vec<u32>),
-    Image { sampled: u32 },
+    Image {
+        sampled: u32,
+    },
     SampledImage,
     Sampler,
     /// Pointer to the pointee type id (the storage class is not needed).

@@ -1,7 +1,9 @@
 //! `gbuffer` pass (shaders-glsl/gbuffer): raster into depth, world position (w = material + 1,
 //! 0 = background), normal, and interpolated per-vertex radiance.
 
-use crate::gpu::{Binding, Gpu, GraphicsPipeline, GraphicsPipelineDesc, Image, ImageDesc, ImageFormat, Recorder, Result};
+use crate::gpu::{
+    Binding, Gpu, GraphicsPipeline, GraphicsPipelineDesc, Image, ImageDesc, ImageFormat, Recorder, Result,
+};
 use crate::renderer::GpuScene;
 
 /// The G-buffer every technique reads.

@@ -88,7 +88,9 @@ fn load_hdr(path: &Path) -> Result<LatLongMap> {
     let res = line().ok_or_else(|| bad("missing resolution line"))?;
     let parts: Vec<&str> = res.split_whitespace().collect();
     let (h, w) = match parts.as_slice() {
-        ["-Y", h, "+X", w] => (h.parse::<usize>().map_err(|_| bad("bad height"))?, w.parse::<usize>().map_err(|_| bad("bad width"))?),
+        ["-Y", h, "+X", w] => {
+            (h.parse::<usize>().map_err(|_| bad("bad height"))?, w.parse::<usize>().map_err(|_| bad("bad width"))?)
+        }
         _ => return Err(bad(&format!("unsupported orientation '{res}' (only -Y H +X W)"))),
     };
     if w == 0 || h == 0 || w > 1 << 16 || h > 1 << 16 {
@@ -98,7 +100,12 @@ fn load_hdr(path: &Path) -> Result<LatLongMap> {
     let mut scan = vec![[0u8; 4]; w];
     for _ in 0..h {
         let rest = &data[pos.min(data.len())..];
-        if rest.len() >= 4 && rest[0] == 2 && rest[1] == 2 && (rest[2] as usize) << 8 | rest[3] as usize == w && (8..32768).contains(&w) {
+        if rest.len() >= 4
+            && rest[0] == 2
+            && rest[1] == 2
+            && (rest[2] as usize) << 8 | rest[3] as usize == w
+            && (8..32768).contains(&w)
+        {
             pos += 4;
             for c in 0..4 {
                 let mut x = 0;

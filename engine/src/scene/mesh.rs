@@ -19,12 +19,24 @@ pub struct Mesh {
 
 impl Mesh {
     /// Validate and repair (see the module doc). `origin` names the source in messages.
-    pub fn new(origin: &Path, name: &str, positions: Vec<Vec3>, normals: Option<Vec<Vec3>>, indices: Vec<u32>) -> Result<Self> {
+    pub fn new(
+        origin: &Path,
+        name: &str,
+        positions: Vec<Vec3>,
+        normals: Option<Vec<Vec3>>,
+        indices: Vec<u32>,
+    ) -> Result<Self> {
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(SceneError::invalid(origin, format!("mesh '{name}': vertex {i} has a non-finite position {:?}", positions[i])));
+            return Err(SceneError::invalid(
+                origin,
+                format!("mesh '{name}': vertex {i} has a non-finite position {:?}", positions[i]),
+            ));
         }
         if !indices.len().is_multiple_of(3) {
-            return Err(SceneError::invalid(origin, format!("mesh '{name}': index count {} is not a multiple of 3", indices.len())));
+            return Err(SceneError::invalid(
+                origin,
+                format!("mesh '{name}': index count {} is not a multiple of 3", indices.len()),
+            ));
         }
         if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
             return Err(SceneError::invalid(
@@ -110,7 +122,10 @@ pub fn load_obj(path: &Path) -> Result<Mesh> {
         let nverts = (p.len() / 3) as u32;
         for &i in &m.mesh.indices {
             if i >= nverts {
-                return Err(SceneError::invalid(path, format!("object '{}': index {i} out of range ({nverts} vertices)", m.name)));
+                return Err(SceneError::invalid(
+                    path,
+                    format!("object '{}': index {i} out of range ({nverts} vertices)", m.name),
+                ));
             }
             indices.push(base + i);
         }
@@ -149,7 +164,8 @@ pub fn load_gltf(path: &Path, material_base: usize) -> Result<GltfScene> {
     }
     let default_material = out.materials.len();
     out.materials.push(Material::diffuse(Vec3::splat(0.8)));
-    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| SceneError::invalid(path, "no scene"))?;
+    let scene =
+        doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| SceneError::invalid(path, "no scene"))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     let mut visited = 0usize;
     while let Some((node, parent)) = stack.pop() {
@@ -165,12 +181,20 @@ pub fn load_gltf(path: &Path, material_base: usize) -> Result<GltfScene> {
         if let Some(mesh) = node.mesh() {
             for (pi, prim) in mesh.primitives().enumerate() {
                 if prim.mode() != gltf::mesh::Mode::Triangles {
-                    log::warn!("{}: mesh {} primitive {pi}: mode {:?} skipped", path.display(), mesh.index(), prim.mode());
+                    log::warn!(
+                        "{}: mesh {} primitive {pi}: mode {:?} skipped",
+                        path.display(),
+                        mesh.index(),
+                        prim.mode()
+                    );
                     continue;
                 }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
                 let Some(pos) = reader.read_positions() else {
-                    return Err(SceneError::invalid(path, format!("mesh {} primitive {pi} has no positions", mesh.index())));
+                    return Err(SceneError::invalid(
+                        path,
+                        format!("mesh {} primitive {pi} has no positions", mesh.index()),
+                    ));
                 };
                 let positions: Vec<Vec3> = pos.map(Vec3::from).collect();
                 let normals = reader.read_normals().map(|n| n.map(Vec3::from).collect());

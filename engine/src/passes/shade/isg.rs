@@ -65,7 +65,15 @@ pub struct IsgOptions {
 
 impl Default for IsgOptions {
     fn default() -> Self {
-        Self { k: 10, side: 16, epsilon: 0.01, node_threshold: 1.0, evaluator: Evaluator::Table, diffuse: Diffuse::Ratio, refine: REFINE_ROUNDS }
+        Self {
+            k: 10,
+            side: 16,
+            epsilon: 0.01,
+            node_threshold: 1.0,
+            evaluator: Evaluator::Table,
+            diffuse: Diffuse::Ratio,
+            refine: REFINE_ROUNDS,
+        }
     }
 }
 
@@ -175,7 +183,13 @@ pub struct Isg {
 
 impl Isg {
     pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
-        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, options, prepared: None, lobes: Vec::new(), fit_error: 0.0 })
+        Ok(Self {
+            pipelines: TargetPipelines::new(gpu, "isg")?,
+            options,
+            prepared: None,
+            lobes: Vec::new(),
+            fit_error: 0.0,
+        })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -209,7 +223,12 @@ impl Technique for Isg {
             .collect();
         let o = &self.options;
         let params = GpuIsgParams {
-            ints: [lobes.len() as u32, o.side as u32, (o.evaluator == Evaluator::Paper) as u32 | ((o.diffuse == Diffuse::Ratio) as u32) << 1, scene.sphere_count],
+            ints: [
+                lobes.len() as u32,
+                o.side as u32,
+                (o.evaluator == Evaluator::Paper) as u32 | ((o.diffuse == Diffuse::Ratio) as u32) << 1,
+                scene.sphere_count,
+            ],
             floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
         };
         // Build every piece; on failure free what was made.
@@ -428,7 +447,15 @@ pub mod cpu {
     }
 
     /// Occluded part of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units.
-    pub fn occlusion(p: DVec3, n: DVec3, axis: DVec3, lambda: f64, o: &IsgOptions, spheres: &[Sphere], lut: &IsgLut) -> f64 {
+    pub fn occlusion(
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        lambda: f64,
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        lut: &IsgLut,
+    ) -> f64 {
         if spheres.is_empty() {
             return 0.0;
         }
@@ -547,7 +574,9 @@ mod tests {
         let o = IsgOptions::parse(&kv("K=4,patches=20,eps=0.05,threshold=0.5,evaluator=paper,refine=0")).unwrap();
         assert_eq!(o.refine, 0);
         assert_eq!((o.k, o.side, o.evaluator), (4, 20, Evaluator::Paper));
-        for bad in ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x", "refine=x", "diffuse=x"] {
+        for bad in
+            ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x", "refine=x", "diffuse=x"]
+        {
             assert!(IsgOptions::parse(&kv(bad)).is_err(), "{bad}");
         }
     }
@@ -585,7 +614,8 @@ mod tests {
                 for j in 0..nph {
                     let ph = (j as f64 + 0.5) / nph as f64 * 2.0 * PI;
                     let d = c * t.cos() + (bx * ph.cos() + by * ph.sin()) * t.sin();
-                    exact += (lambda * (d.dot(axis) - 1.0)).exp() * t.sin() * (psi / nt as f64) * (2.0 * PI / nph as f64);
+                    exact +=
+                        (lambda * (d.dot(axis) - 1.0)).exp() * t.sin() * (psi / nt as f64) * (2.0 * PI / nph as f64);
                 }
             }
             let rel = (occ - exact).abs() / exact;
@@ -599,7 +629,8 @@ mod tests {
         let lut = IsgLut::generate_default();
         let o = IsgOptions::default();
         let (p, n) = (DVec3::ZERO, DVec3::Y);
-        let bound = |lambda: f64| 2.0 * PI * -(-2.0 * lambda).exp_m1() / lambda / engine_math::isg::isg_normalization(lambda);
+        let bound =
+            |lambda: f64| 2.0 * PI * -(-2.0 * lambda).exp_m1() / lambda / engine_math::isg::isg_normalization(lambda);
         let check = |v: f64, lambda: f64, what: &str| {
             assert!(v.is_finite() && v >= 0.0 && v <= bound(lambda) * (1.0 + 1e-9), "{what}: {v} (λ {lambda})");
             v
@@ -617,7 +648,11 @@ mod tests {
             check(cover, lambda, "covering");
             // Straddling the tangent plane, off to the side; lobe axis below the horizon.
             let straddle = Sphere::new(DVec3::new(1.0, 0.1, 0.0), 0.5);
-            check(occlusion(p, n, DVec3::new(1.0, -0.2, 0.0).normalize(), lambda, &o, &[straddle], &lut), lambda, "below");
+            check(
+                occlusion(p, n, DVec3::new(1.0, -0.2, 0.0).normalize(), lambda, &o, &[straddle], &lut),
+                lambda,
+                "below",
+            );
             // Hundreds of overlapping spheres: no more than the whole grid.
             let many: Vec<Sphere> = (0..300)
                 .map(|i| {

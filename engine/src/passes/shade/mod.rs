@@ -99,7 +99,14 @@ impl TargetPipelines {
     }
 
     /// Dispatch the pipeline for `target` with the common bindings plus `extra`.
-    pub fn record(&self, rec: &mut Recorder, name: &str, inputs: &ShadeInputs, target: ShadeTarget, extra: &[Binding]) -> Result<()> {
+    pub fn record(
+        &self,
+        rec: &mut Recorder,
+        name: &str,
+        inputs: &ShadeInputs,
+        target: ShadeTarget,
+        extra: &[Binding],
+    ) -> Result<()> {
         let s = inputs.scene;
         let mut b = vec![
             Binding::buffer("FrameBuf", &s.frame),
