@@ -82,10 +82,12 @@ pub fn bunny_scene(env: Option<&Path>) -> anyhow::Result<Scene> {
     let bunny = load_obj(&assets.join("meshes/bunny.obj"))?;
     let env_path = env.map(Path::to_path_buf).unwrap_or_else(|| assets.join("envmaps/courtyard.exr"));
     let environment = load_environment(&env_path)?;
-    let (lo, hi) = bunny.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
+    let (lo, hi) =
+        bunny.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
     let scale = 1.0 / (hi.y - lo.y);
     let centre = 0.5 * (lo + hi);
-    let transform = Mat4::from_scale(Vec3::splat(scale)) * Mat4::from_translation(Vec3::new(-centre.x, -lo.y, -centre.z));
+    let transform =
+        Mat4::from_scale(Vec3::splat(scale)) * Mat4::from_translation(Vec3::new(-centre.x, -lo.y, -centre.z));
     // 64 blocker spheres (SHEXP §6.2 fit), fitted once and cached beside the mesh; refitted when the
     // mesh or the settings change.
     let settings = engine::blockers::fit::FitSettings::default();
@@ -202,18 +204,13 @@ pub const ARM_RADIUS: f32 = 0.15;
 pub fn arm_spheres(count: u32) -> Vec<Sphere> {
     let spacing = ARM_LENGTH / (count - 1) as f32;
     let radius = (ARM_RADIUS * ARM_RADIUS + 0.25 * spacing * spacing).sqrt();
-    (0..count)
-        .map(|i| Sphere::new(glam::DVec3::new((spacing * i as f32) as f64, 0.0, 0.0), radius as f64))
-        .collect()
+    (0..count).map(|i| Sphere::new(glam::DVec3::new((spacing * i as f32) as f64, 0.0, 0.0), radius as f64)).collect()
 }
 
 /// Bone matrices of the arm with the forearm bent by `angle` (radians) about the elbow (x = 1, +z axis).
 pub fn arm_bones(angle: f32) -> Vec<Mat4> {
     let elbow = Vec3::new(1.0, 0.0, 0.0);
-    vec![
-        Mat4::IDENTITY,
-        Mat4::from_translation(elbow) * Mat4::from_rotation_z(angle) * Mat4::from_translation(-elbow),
-    ]
+    vec![Mat4::IDENTITY, Mat4::from_translation(elbow) * Mat4::from_rotation_z(angle) * Mat4::from_translation(-elbow)]
 }
 
 /// The skinned arm, bent by `angle`, raised above a ground plane under the smooth sky of
@@ -260,7 +257,10 @@ pub fn sphere_over_plane(env: LatLongMap, albedo: f32, center: Vec3, radius: f32
         environment: env,
         environment_intensity: 1.0,
         lights: Vec::new(),
-        blockers: SceneBlockers { spheres: vec![None, Some(vec![Sphere::new(glam::DVec3::ZERO, 1.0)])], ..Default::default() },
+        blockers: SceneBlockers {
+            spheres: vec![None, Some(vec![Sphere::new(glam::DVec3::ZERO, 1.0)])],
+            ..Default::default()
+        },
         camera: Camera { eye: Vec3::new(0.0, 2.2, 2.6), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },
     }
 }

@@ -100,7 +100,10 @@ fn run() -> anyhow::Result<()> {
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
     if let (Some(spp), Some(r)) = (args.spp, engine::passes::shade::reference::reference_mut(&mut renderer)) {
         let per_frame = spp.clamp(1, 64);
-        r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: per_frame, ..r.options() })?;
+        r.set_options(engine::passes::shade::reference::ReferenceOptions {
+            samples_per_frame: per_frame,
+            ..r.options()
+        })?;
         args.frames = spp.div_ceil(per_frame);
     }
     if let Some(dir) = &args.export {
@@ -175,7 +178,11 @@ fn render_frames(gpu: &Gpu, renderer: &mut Renderer, args: &Args) -> anyhow::Res
     let per_vertex = renderer.settings.per_vertex;
     if let Some(r) = engine::passes::shade::reference::reference_mut(renderer) {
         let stats = r.stats(gpu, per_vertex)?;
-        println!("reference: {} samples per item, relative standard error {:.3e}", stats.samples, stats.relative_stderr());
+        println!(
+            "reference: {} samples per item, relative standard error {:.3e}",
+            stats.samples,
+            stats.relative_stderr()
+        );
     }
     if args.memory {
         let first = after_first.unwrap_or_default();
