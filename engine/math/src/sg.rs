@@ -312,26 +312,14 @@ fn solve_spd(a: &[f64], b: &[f64], n: usize) -> Vec<f64> {
 /// amplitudes of the k-lobe fit are optimal for its basis, the error never rises with k.
 /// Errors are `‖L − Σ G‖ / ‖L‖` in the solid-angle-weighted L2 norm over the map's texels.
 pub fn fit_envmap_sgs(map: &LatLongMap, k_max: usize) -> (Vec<Vec<SgRgb>>, Vec<f64>) {
-    let (w, h) = (map.width, map.height);
-    let n = w * h;
-    let mut dirs = Vec::with_capacity(n);
-    let mut wts = Vec::with_capacity(n);
-    let mut vals = Vec::with_capacity(n);
-    for row in 0..h {
-        let sa = texel_solid_angle(row, w, h);
-        for col in 0..w {
-            dirs.push(map.texel_direction(col, row));
-            wts.push(sa);
-            vals.push(map.texel(col, row).map(|x| x as f64));
-        }
-    }
+    let (dirs, wts, vals) = fit_samples(map);
+    let n = dirs.len();
     let norm2: f64 = (0..n).map(|i| wts[i] * vals[i].iter().map(|x| x * x).sum::<f64>()).sum();
-    let texel_angle = PI / h as f64;
+    let texel_angle = PI / map.height as f64;
     let lambda_cap = 1.0 / (texel_angle * texel_angle);
     let ladder: Vec<f64> = (0..40).map(|j| 2f64.powf(j as f64 / 2.0 - 1.0)).filter(|&l| l <= lambda_cap).collect();
     let mut resid = vals.clone();
     let mut lobes: Vec<SgRgb> = Vec::new();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
     let mut fits = Vec::new();
     let mut errs = Vec::new();
     for _ in 0..k_max {
@@ -355,43 +343,18 @@ pub fn fit_envmap_sgs(map: &LatLongMap, k_max: usize) -> (Vec<Vec<SgRgb>>, Vec<f
                 best_l = l;
             }
         }
-        basis.push(dirs.iter().map(|&d| (best_l * dot_minus_one(d, axis)).exp()).collect());
         lobes.push(SgRgb { axis, lambda: best_l, mu: [0.0; 3] });
-        let k = lobes.len();
-        let mut gram = vec![0.0; k * k];
-        for a in 0..k {
-            for b in 0..=a {
-                let s: f64 = (0..n).map(|i| wts[i] * basis[a][i] * basis[b][i]).sum();
-                gram[a * k + b] = s;
-                gram[b * k + a] = s;
-            }
-        }
-        // One right-hand side per colour channel: rhs[a][c] = Σ_i w_i G_a(d_i) L_c(d_i).
-        let rhs: Vec<[f64; 3]> = (0..k)
-            .map(|a| {
-                (0..n).fold([0.0; 3], |acc, i| {
-                    let g = wts[i] * basis[a][i];
-                    [acc[0] + g * vals[i][0], acc[1] + g * vals[i][1], acc[2] + g * vals[i][2]]
-                })
-            })
-            .collect();
-        for (c, _) in [(); 3].iter().enumerate() {
-            let col: Vec<f64> = rhs.iter().map(|r| r[c]).collect();
-            let x = solve_spd(&gram, &col, k);
-            for (lobe, xa) in lobes.iter_mut().zip(x) {
-                lobe.mu[c] = xa;
-            }
-        }
-        let mut e2 = 0.0;
-        for i in 0..n {
-            for c in 0..3 {
-                let m: f64 = (0..k).map(|a| lobes[a].mu[c] * basis[a][i]).sum();
-                resid[i][c] = vals[i][c] - m;
-                e2 += wts[i] * resid[i][c] * resid[i][c];
-            }
+        let (fitted, err) = ls_amplitudes(&lobes, &dirs, &wts, &vals, norm2);
+        lobes = fitted;
+        for (i, r) in resid.iter_mut().enumerate() {
+            let m = lobes.iter().fold([0.0; 3], |acc, l| {
+                let g = (l.lambda * dot_minus_one(dirs[i], l.axis)).exp();
+                [acc[0] + l.mu[0] * g, acc[1] + l.mu[1] * g, acc[2] + l.mu[2] * g]
+            });
+            *r = [vals[i][0] - m[0], vals[i][1] - m[1], vals[i][2] - m[2]];
         }
         fits.push(lobes.clone());
-        errs.push((e2 / norm2.max(1e-300)).sqrt());
+        errs.push(err);
     }
     (fits, errs)
 }
