@@ -34,9 +34,13 @@ struct Args {
     /// Override k_s of material 0.
     #[arg(long)]
     ks: Option<f32>,
-    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, or `both`.
+    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, or `none` (only
+    /// the techniques' times).
     #[arg(long, default_value = "both")]
     visibility: String,
+    /// Refit mesh 0 (the bunny) with this many blocker spheres (cached in <out>/spheres/).
+    #[arg(long)]
+    spheres: Option<usize>,
     /// Stop the reference when its relative standard error is this fraction of the measured error.
     #[arg(long, default_value_t = 0.2)]
     fraction: f64,
@@ -75,9 +79,25 @@ fn run() -> Result<()> {
         "spheres" => vec![("spheres", Visibility::Spheres)],
         "triangles" => vec![("triangles", Visibility::Triangles)],
         "both" => vec![("spheres", Visibility::Spheres), ("triangles", Visibility::Triangles)],
+        "none" => Vec::new(),
         v => bail!("--visibility {v}: use spheres, triangles or both"),
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    if let Some(count) = args.spheres {
+        let settings = engine::blockers::fit::FitSettings { count, ..Default::default() };
+        let dir = args.out.join("spheres");
+        std::fs::create_dir_all(&dir)?;
+        let mesh = scene.meshes.first().context("the scene has no mesh")?;
+        let cache = dir.join(format!("{}-{count}.spheres.json", args.scene));
+        eprintln!("fitting {count} spheres to mesh 0 (cached in {})...", cache.display());
+        let t0 = std::time::Instant::now();
+        let spheres = engine::scene::blockers::fitted_spheres(mesh, &settings, &cache)?;
+        eprintln!("{} spheres in {:.1} s", spheres.len(), t0.elapsed().as_secs_f64());
+        match scene.blockers.spheres.first_mut() {
+            Some(slot) => *slot = Some(spheres),
+            None => scene.blockers.spheres.push(Some(spheres)),
+        }
+    }
     let gpu = Gpu::new(&GpuDesc::default())?;
     let result = measure(&gpu, &scene, &args, &visibilities);
     gpu.shutdown()?;
@@ -104,14 +124,22 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         measured.push(m);
     }
     println!(
-        "scene {} {}x{}{}, gloss {:?}, ks {:?}",
+        "scene {}{} {}x{}{}, gloss {:?}, ks {:?}",
         args.scene,
+        args.spheres.map(|n| format!(" ({n} spheres)")).unwrap_or_default(),
         w,
         h,
         if args.per_vertex { " per vertex" } else { "" },
         args.gloss,
         args.ks
     );
+    if visibilities.is_empty() {
+        println!("| technique | shade ms |");
+        println!("|---|---|");
+        for m in &measured {
+            println!("| {} | {:.2} |", m.spec, m.shade_ms);
+        }
+    }
     for (vis_name, vis) in visibilities {
         // Converge against the most accurate technique measured (the smallest error).
         eprintln!("converging the {vis_name} reference (max {} spp)...", args.max_spp);
