@@ -21,6 +21,9 @@ use std::path::PathBuf;
 struct Args {
     #[arg(long, default_value = "bunny")]
     scene: String,
+    /// Environment map (.exr or .hdr) instead of the scene's.
+    #[arg(long)]
+    env: Option<PathBuf>,
     /// Technique specs to measure (repeatable), e.g. `isg`, `isg:patches=8,K=4`, `none`.
     #[arg(long = "technique", default_values_t = vec!["isg".to_string()])]
     techniques: Vec<String>,
@@ -66,7 +69,7 @@ fn main() {
 
 fn run() -> Result<()> {
     let args = Args::parse();
-    let mut scene = demos::build_scene(&args.scene, None)?;
+    let mut scene = demos::build_scene(&args.scene, args.env.as_deref())?;
     if let Some(m) = scene.materials.first_mut() {
         if let Some(s) = args.gloss {
             m.shininess = s;
