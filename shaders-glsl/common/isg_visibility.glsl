@@ -21,6 +21,7 @@
 
 #include "isg.glsl"
 #include "bvh.glsl"
+#include "frame.glsl"
 
 // Patches per side at most (one 32-bit mask word per row).
 #define ISG_MAX_SIDE 32
@@ -50,19 +51,10 @@ float isg_limiting_angle(float lambda, float log_epsilon) {
     return c <= 0.0 ? ISG_HALF_PI : acos(c);
 }
 
-// Orthonormal basis around a unit z (Duff et al. 2017, branchless and continuous except at z.z = −0).
-void isg_basis(vec3 z, out vec3 x, out vec3 y) {
-    float s = z.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (s + z.z);
-    float b = z.x * z.y * a;
-    x = vec3(1.0 + s * z.x * z.x * a, s * b, -s * z.x);
-    y = vec3(b, s + z.y * z.y * a, -z.y);
-}
-
 IsgGrid isg_grid(vec3 axis, float lambda, IsgSettings st) {
     IsgGrid g;
     g.z = axis;
-    isg_basis(axis, g.x, g.y);
+    orthonormal_basis(axis, g.x, g.y);
     float gamma = isg_limiting_angle(lambda, st.log_epsilon);
     g.side = clamp(st.side, 1, ISG_MAX_SIDE);
     g.lo = ISG_HALF_PI - gamma;

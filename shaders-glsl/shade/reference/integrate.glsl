@@ -11,6 +11,7 @@
 #define REFERENCE_INTEGRATE_GLSL
 #include "../common.glsl"
 #include "trace.glsl"
+#include "../../common/frame.glsl"
 
 // Twin of engine::passes::shade::reference::ReferenceParams.
 layout(push_constant) uniform Params {
@@ -56,18 +57,9 @@ float rand(inout uint s) {
 }
 
 // ---- frames and the material ----
-// Orthonormal basis around n (Duff et al. 2017).
-void basis(vec3 n, out vec3 t, out vec3 b) {
-    float s = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (s + n.z);
-    float c = n.x * n.y * a;
-    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
-    b = vec3(c, s + n.y * n.y * a, -n.y);
-}
-
 vec3 local_to_world(vec3 n, float cos_t, float phi) {
     vec3 t, b;
-    basis(n, t, b);
+    orthonormal_basis(n, t, b);
     float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
     return normalize(sin_t * cos(phi) * t + sin_t * sin(phi) * b + cos_t * n);
 }
