@@ -10,13 +10,13 @@ use std::path::Path;
 /// matches it and infinity otherwise.
 pub fn relative_rmse_percent(test: &[f32], reference: &[f32], mask: &[bool]) -> f64 {
     let (num, den) = squared_sums(test.chunks_exact(4).map(rgb), reference.chunks_exact(4).map(rgb), mask);
-    100.0 * ratio(num, den)
+    100.0 * sqrt_ratio(num, den)
 }
 
 /// Relative RMSE as a fraction, over per-item RGB values (pixels or vertices) where `mask` holds.
 pub fn relative_rmse_items(test: &[[f32; 3]], reference: &[[f32; 3]], mask: &[bool]) -> f64 {
     let (num, den) = squared_sums(test.iter().copied(), reference.iter().copied(), mask);
-    ratio(num, den)
+    sqrt_ratio(num, den)
 }
 
 fn rgb(p: &[f32]) -> [f32; 3] {
@@ -38,7 +38,8 @@ fn squared_sums(t: impl Iterator<Item = [f32; 3]>, r: impl Iterator<Item = [f32;
     (num, den)
 }
 
-fn ratio(num: f64, den: f64) -> f64 {
+/// sqrt(num / den): 0 for 0/0 and ∞ for x/0 (the relative-RMSE quotient of sums of squares).
+pub(crate) fn sqrt_ratio(num: f64, den: f64) -> f64 {
     if den > 0.0 {
         (num / den).sqrt()
     } else if num > 0.0 {

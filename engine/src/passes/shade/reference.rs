@@ -274,13 +274,7 @@ impl ReferenceStats {
                 den += (m[k] as f64) * (m[k] as f64);
             }
         }
-        if den > 0.0 {
-            (num / den).sqrt()
-        } else if num > 0.0 {
-            f64::INFINITY
-        } else {
-            0.0
-        }
+        crate::metrics::sqrt_ratio(num, den)
     }
 }
 
