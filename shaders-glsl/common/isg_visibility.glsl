@@ -9,7 +9,8 @@
 //    radius is below `node_threshold` patch widths is taken whole, leaves always; each blocker passes
 //    the SHEXP self-shadowing rule (spheres.glsl) and marks the patches whose CENTRE direction lies
 //    in its cap of directions (exact per row: one acos per row);
-// 4. occluded patches are summed run by run along each row with the four-corner rule of Ŝ.
+// 4. the receiver's own tangent plane occludes the patches below it (V = 0 there);
+// 5. occluded patches are summed run by run along each row with the four-corner rule of Ŝ.
 // The result is the occluded part of the lobe's integral normalized by its hemisphere integral
 // (Ŝ units): visible integral = μ (F(λ) − H(λ) · occluded), F the sphere and H the hemisphere integral.
 //
@@ -202,12 +203,19 @@ void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, u
     }
 }
 
-// Occluded part of the lobe (axis, λ) by the gathered blockers, in Ŝ units.
-float isg_occlusion_of(IsgBlockers b, vec3 axis, float lambda, IsgSettings st) {
-    if (b.count == 0) return 0.0;
+// Occluded parts of the lobe (axis, λ), in Ŝ units: x = by the receiver's own tangent plane alone
+// (directions below it, where the surface itself blocks: V = 0), y = by the plane and the gathered
+// blockers together. The lobe's visible integral is μ (F − H y); its integral over the receiver's upper
+// hemisphere is μ (F − H x).
+vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSettings st) {
     IsgGrid g = isg_grid(axis, lambda, st);
     uint mask[ISG_MAX_SIDE];
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
+    float horizon = 0.0;
+    if (spheres_angle_between(axis, -n) <= g.cone + ISG_HALF_PI) {
+        isg_mark_cap(mask, g, -n, ISG_HALF_PI);
+        horizon = isg_occluded_sum(mask, g, lambda, st.evaluator);
+    }
     bool marked = false;
     for (int c = 0; c < b.count; ++c) {
         vec4 cap = b.caps[c];
@@ -216,16 +224,19 @@ float isg_occlusion_of(IsgBlockers b, vec3 axis, float lambda, IsgSettings st) {
         isg_mark_cap(mask, g, cap.xyz, cap.w);
         marked = true;
     }
-    return marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : 0.0;
+    return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
 }
 
-// Occluded part of one lobe with its own traversal (cone and node threshold from its own grid).
-float isg_occlusion(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint sphere_count) {
-    if (sphere_count == 0u) return 0.0;
-    IsgGrid g = isg_grid(axis, lambda, st);
+// The same with the lobe's own traversal (cone and node threshold from its own grid).
+vec2 isg_occlusion(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint sphere_count) {
     IsgBlockers b;
-    isg_gather(p, n, axis, g.cone, st.node_threshold * g.delta, sphere_count, b);
-    return isg_occlusion_of(b, axis, lambda, st);
+    b.count = 0;
+    b.dropped = 0;
+    if (sphere_count > 0u) {
+        IsgGrid g = isg_grid(axis, lambda, st);
+        isg_gather(p, n, axis, g.cone, st.node_threshold * g.delta, sphere_count, b);
+    }
+    return isg_occlusion_of(b, n, axis, lambda, st);
 }
 
 #endif // ISG_VISIBILITY_GLSL

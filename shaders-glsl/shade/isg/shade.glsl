@@ -74,12 +74,13 @@ vec3 shade_point(ShadePoint sp) {
         float lambda;
         float log_mu = sg_product_log(l.axis_lambda.xyz, l.axis_lambda.w, 1.0, n, cos_lambda, cos_mu, axis, lambda);
         // A full blocker list would lose occlusion: such points traverse per lobe instead.
-        float occ = blockers.dropped == 0 ? isg_occlusion_of(blockers, axis, lambda, st)
-                                          : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
-        float full = exp(log_mu) * isg_full_integral(lambda);
-        float visible = max(full - exp(log_mu) * isg_normalization(lambda) * occ, 0.0);
-        e += l.mu.rgb * visible;
-        e_full += l.mu.rgb * full;
+        vec2 occ = blockers.dropped == 0 ? isg_occlusion_of(blockers, n, axis, lambda, st)
+                                         : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
+        float mu = exp(log_mu);
+        float full = isg_full_integral(lambda);
+        float h = isg_normalization(lambda);
+        e += l.mu.rgb * max(mu * (full - h * occ.y), 0.0);
+        e_full += l.mu.rgb * max(mu * (full - h * occ.x), 0.0);
     }
     if (diffuse_ratio) {
         // Exact irradiance times the lobes' visibility ratio (per channel; 1 where the fit is ~0).
@@ -103,9 +104,11 @@ vec3 shade_point(ShadePoint sp) {
         vec3 axis;
         float lambda;
         sg_product_log(r, s / (4.0 * ndv), 1.0, n, cos_lambda, cos_mu, axis, lambda);
-        float occ = isg_occlusion(sp.position, n, axis, lambda, st, spheres);
+        vec2 occ = isg_occlusion(sp.position, n, axis, lambda, st, spheres);
         float full = isg_full_integral(lambda);
-        ratio = clamp((full - isg_normalization(lambda) * occ) / full, 0.0, 1.0);
+        float h = isg_normalization(lambda);
+        float above = full - h * occ.x;
+        ratio = above > 0.0 ? clamp((full - h * occ.y) / above, 0.0, 1.0) : 1.0;
     }
     return result + spec * ratio;
 }

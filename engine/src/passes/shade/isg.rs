@@ -446,7 +446,8 @@ pub mod cpu {
         sum.max(0.0)
     }
 
-    /// Occluded part of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units.
+    /// Occluded parts of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units: (by the
+    /// receiver's tangent plane alone — V = 0 below it —, by the plane and the spheres together).
     pub fn occlusion(
         p: DVec3,
         n: DVec3,
@@ -455,13 +456,15 @@ pub mod cpu {
         o: &IsgOptions,
         spheres: &[Sphere],
         lut: &IsgLut,
-    ) -> f64 {
-        if spheres.is_empty() {
-            return 0.0;
-        }
+    ) -> (f64, f64) {
         let g = grid(axis, lambda, o);
-        let cone = Cone::new(p, axis, g.cone);
         let mut mask = vec![vec![false; g.side]; g.side];
+        let mut horizon = 0.0;
+        if engine_blockers::geom::angle_between(axis, -n) <= g.cone + FRAC_PI_2 {
+            mark_cap(&mut mask, &g, -n, FRAC_PI_2);
+            horizon = occluded_sum(&mask, &g, lambda, o.evaluator, lut);
+        }
+        let cone = Cone::new(p, axis, g.cone);
         let mut marked = false;
         for s in spheres {
             if !cone_intersects_sphere(&cone, s) {
@@ -479,11 +482,7 @@ pub mod cpu {
             mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
             marked = true;
         }
-        if marked {
-            occluded_sum(&mask, &g, lambda, o.evaluator, lut)
-        } else {
-            0.0
-        }
+        (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
     }
 
     /// Visible integral of the SG (axis, λ) with amplitude exp(log_mu): μ (F(λ) − H(λ) · occluded).
@@ -529,23 +528,28 @@ pub mod cpu {
         for l in lobes {
             let prod = sg_product_log(&Sg::new(l.axis, l.lambda, 1.0), &cosine);
             let axis = DVec3::from_array(prod.axis);
-            let occ = occlusion(pt.position, n, axis, prod.lambda, o, spheres, lut);
+            let (_, occ) = occlusion(pt.position, n, axis, prod.lambda, o, spheres, lut);
             let v = visible_integral(prod.log_mu, prod.lambda, occ);
             for (ec, mu) in e.iter_mut().zip(l.mu) {
                 *ec += mu * v;
             }
         }
         let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
-        let ratio = if pt.specular.iter().all(|&k| k == 0.0) {
+        let ratio = if pt.specular.iter().all(|&k| k == 0.0) || spheres.is_empty() {
             1.0
         } else {
             let ndv = n.dot(pt.view).abs().max(1e-6);
             let r = (2.0 * n.dot(pt.view) * n - pt.view).normalize();
             let lambda = pt.shininess / (4.0 * ndv);
             let prod = sg_product_log(&Sg::new([r.x, r.y, r.z], lambda, 1.0), &cosine);
-            let occ = occlusion(pt.position, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+            let (hor, occ) = occlusion(pt.position, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
             let full = 2.0 * PI * sphere_unit(prod.lambda);
-            ((full - isg_normalization(prod.lambda) * occ) / full).clamp(0.0, 1.0)
+            let above = full - isg_normalization(prod.lambda) * hor;
+            if above > 0.0 {
+                ((full - isg_normalization(prod.lambda) * occ) / above).clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
         };
         (diffuse, ratio)
     }
@@ -601,7 +605,9 @@ mod tests {
             (5.0, DVec3::new(0.3, 1.0, 0.1).normalize(), Sphere::new(DVec3::new(1.0, 2.0, 0.5), 0.8)),
             (200.0, DVec3::new(0.0, 1.0, 0.2).normalize(), Sphere::new(DVec3::new(0.0, 4.0, 0.9), 0.4)),
         ] {
-            let occ = occlusion(p, n, axis, lambda, &o, &[s], &lut) * engine_math::isg::isg_normalization(lambda);
+            let (hor, all) = occlusion(p, n, axis, lambda, &o, &[s], &lut);
+            // The sphere lies wholly above the tangent plane: its patches and the horizon's are disjoint.
+            let occ = (all - hor) * engine_math::isg::isg_normalization(lambda);
             // Quadrature of the SG over the cap of directions hitting s.
             let c = (s.center - p).normalize();
             let cos_psi = (1.0 - (s.radius / s.center.length()).powi(2)).sqrt();
@@ -637,19 +643,20 @@ mod tests {
         };
         for lambda in [1e-4, 1e-2, 1.0, 100.0, 1e4, 1e5] {
             // Receiver inside a sphere whose centre is in front: a tangent sphere covering the zenith.
-            let inside = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 0.3, 0.0), 1.0)], &lut);
+            let (horizon, inside) =
+                occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 0.3, 0.0), 1.0)], &lut);
             check(inside, lambda, "inside, centre in front");
-            assert!(inside > 0.0, "inside a sphere in front: some occlusion (λ {lambda})");
+            assert!(inside > horizon, "inside a sphere in front: some occlusion (λ {lambda})");
             // Receiver inside a sphere whose centre is behind the tangent plane: eliminated.
-            let behind = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, -0.3, 0.0), 1.0)], &lut);
-            assert_eq!(behind, 0.0, "centre behind T_p: eliminated");
+            let (h, behind) = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, -0.3, 0.0), 1.0)], &lut);
+            assert_eq!(behind, h, "centre behind T_p: eliminated (only the tangent plane occludes)");
             // A blocker covering the whole cone: the whole grid is occluded (Ŝ over the grid ≤ 1).
-            let cover = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 1.0, 0.0), 0.999)], &lut);
+            let cover = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 1.0, 0.0), 0.999)], &lut).1;
             check(cover, lambda, "covering");
             // Straddling the tangent plane, off to the side; lobe axis below the horizon.
             let straddle = Sphere::new(DVec3::new(1.0, 0.1, 0.0), 0.5);
             check(
-                occlusion(p, n, DVec3::new(1.0, -0.2, 0.0).normalize(), lambda, &o, &[straddle], &lut),
+                occlusion(p, n, DVec3::new(1.0, -0.2, 0.0).normalize(), lambda, &o, &[straddle], &lut).1,
                 lambda,
                 "below",
             );
@@ -660,13 +667,14 @@ mod tests {
                     Sphere::new(DVec3::new(t.cos() * 0.5, 0.6 + 0.001 * i as f64, t.sin() * 0.5), 0.3)
                 })
                 .collect();
-            let all = check(occlusion(p, n, n, lambda, &o, &many, &lut), lambda, "many");
-            let one = occlusion(p, n, n, lambda, &o, &many[..1], &lut);
+            let all = check(occlusion(p, n, n, lambda, &o, &many, &lut).1, lambda, "many");
+            let one = occlusion(p, n, n, lambda, &o, &many[..1], &lut).1;
             assert!(all >= one, "more blockers occlude no less");
         }
         // Zero-radius and coincident spheres block nothing / the same as one.
         let s = Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.5);
-        assert_eq!(occlusion(p, n, n, 10.0, &o, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.0)], &lut), 0.0);
+        let (h, a) = occlusion(p, n, n, 10.0, &o, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.0)], &lut);
+        assert_eq!(a, h, "a zero-radius sphere blocks nothing");
         let once = occlusion(p, n, n, 10.0, &o, &[s], &lut);
         assert_eq!(occlusion(p, n, n, 10.0, &o, &[s, s, s], &lut), once);
     }
