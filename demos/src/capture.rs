@@ -66,9 +66,18 @@ pub struct CaptureInfo {
 
 impl Capture {
     /// Render `frames` frames with `renderer` and record every pass time.
-    pub fn record(gpu: &Gpu, renderer: &mut Renderer, frames: u32) -> Result<Self> {
+    /// Render `frames` frames, posing the scene first at t = frame / 30 s when `animation` is given.
+    pub fn record(
+        gpu: &Gpu,
+        renderer: &mut Renderer,
+        frames: u32,
+        animation: Option<&crate::Animation>,
+    ) -> Result<Self> {
         let mut c = Capture::default();
-        for _ in 0..frames {
+        for f in 0..frames {
+            if let Some(a) = animation {
+                a.apply(renderer, f as f32 / 30.0)?;
+            }
             let timings = renderer.render(gpu)?;
             let mut row = vec![None; c.passes.len()];
             for t in timings {
@@ -204,9 +213,17 @@ impl Capture {
 }
 
 /// `demo --capture N`: render N frames, write the files to `out/capture/<name>.*`, print the summary.
-pub fn run(gpu: &Gpu, renderer: &mut Renderer, frames: u32, out: &Path, name: &str, info: &CaptureInfo) -> Result<()> {
+pub fn run(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    frames: u32,
+    out: &Path,
+    name: &str,
+    info: &CaptureInfo,
+    animation: Option<&crate::Animation>,
+) -> Result<()> {
     eprintln!("capturing {frames} frames...");
-    let c = Capture::record(gpu, renderer, frames.max(1))?;
+    let c = Capture::record(gpu, renderer, frames.max(1), animation)?;
     let paths = c.write(&out.join("capture"), name, info)?;
     println!("per-pass GPU time on {} over {} frames ({}x{}):", info.device, c.frames.len(), info.width, info.height);
     print!("{}", c.summary_table());

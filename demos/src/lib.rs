@@ -264,3 +264,45 @@ pub fn sphere_over_plane(env: LatLongMap, albedo: f32, center: Vec3, radius: f32
         camera: Camera { eye: Vec3::new(0.0, 2.2, 2.6), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },
     }
 }
+
+/// Motion over time for the demo and the viewer (`--animate`): the bunny turns on its base (a rigid
+/// transform: its blocker spheres follow), the arm bends between 0° and 60° (the bones: skin and
+/// skinned spheres follow). Other scenes are static.
+pub struct Animation {
+    kind: AnimationKind,
+}
+
+enum AnimationKind {
+    /// Instance `index` turns about +Y (world) from its base transform.
+    Turntable {
+        index: usize,
+        base: Mat4,
+    },
+    ArmBend,
+}
+
+impl Animation {
+    /// The animation of a demo scene built by [`build_scene`], if it has one.
+    pub fn for_scene(name: &str, scene: &Scene) -> Option<Self> {
+        match name {
+            "bunny" => {
+                scene.instances.first().map(|i| Self { kind: AnimationKind::Turntable { index: 0, base: i.transform } })
+            }
+            "arm" => Some(Self { kind: AnimationKind::ArmBend }),
+            _ => None,
+        }
+    }
+
+    /// Pose the renderer's scene at time `t` seconds (no allocation).
+    pub fn apply(&self, renderer: &mut engine::renderer::Renderer, t: f32) -> engine::gpu::Result<()> {
+        match self.kind {
+            AnimationKind::Turntable { index, base } => {
+                renderer.set_instance_transform(index, Mat4::from_rotation_y(0.5 * t) * base)
+            }
+            AnimationKind::ArmBend => {
+                let angle = 60f32.to_radians() * (0.5 - 0.5 * (1.3 * t).cos());
+                renderer.set_bones(&arm_bones(angle))
+            }
+        }
+    }
+}

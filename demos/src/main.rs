@@ -59,6 +59,10 @@ struct Args {
     /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
     #[arg(long, value_name = "N")]
     capture: Option<u32>,
+    /// Animate the scene over time (bunny: turns on its base; arm: bends at the elbow): headless frames
+    /// step 1/30 s, the viewer follows the clock.
+    #[arg(long)]
+    animate: bool,
     /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr; see
     /// demos/src/export.rs) and write our render of the same frame there as engine.exr / engine.png.
     #[arg(long, value_name = "DIR")]
@@ -112,13 +116,28 @@ fn run() -> anyhow::Result<()> {
         println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
         (args.out, args.name) = (dir.clone(), "engine".into());
     }
+    let animation = if args.animate { demos::Animation::for_scene(&args.scene, &scene) } else { None };
+    if args.animate && animation.is_none() {
+        eprintln!("warning: scene '{}' has no animation (bunny and arm do); rendering it static", args.scene);
+    }
     let result = match event_loop {
-        Some(el) => {
-            demos::viewer::run(el, &gpu, &mut renderer, demos::viewer::ViewerOptions { exit_after: args.exit_after })
-        }
+        Some(el) => demos::viewer::run(
+            el,
+            &gpu,
+            &mut renderer,
+            demos::viewer::ViewerOptions { exit_after: args.exit_after, animation },
+        ),
         None => match args.capture {
-            Some(n) => demos::capture::run(&gpu, &mut renderer, n, &args.out, &args.name, &capture_info(&gpu, &args)),
-            None => render_frames(&gpu, &mut renderer, &args),
+            Some(n) => demos::capture::run(
+                &gpu,
+                &mut renderer,
+                n,
+                &args.out,
+                &args.name,
+                &capture_info(&gpu, &args),
+                animation.as_ref(),
+            ),
+            None => render_frames(&gpu, &mut renderer, &args, animation.as_ref()),
         },
     };
     renderer.destroy(&gpu);
@@ -137,11 +156,19 @@ fn capture_info(gpu: &Gpu, args: &Args) -> demos::capture::CaptureInfo {
     }
 }
 
-fn render_frames(gpu: &Gpu, renderer: &mut Renderer, args: &Args) -> anyhow::Result<()> {
+fn render_frames(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    args: &Args,
+    animation: Option<&demos::Animation>,
+) -> anyhow::Result<()> {
     let frames = args.frames.max(1);
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
     let mut after_first = None;
     for f in 0..frames {
+        if let Some(a) = animation {
+            a.apply(renderer, f as f32 / 30.0)?;
+        }
         let timings = renderer.render(gpu)?;
         if f == 0 {
             after_first = Some(gpu.memory_stats());

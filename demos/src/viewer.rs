@@ -26,6 +26,8 @@ pub struct ViewerOptions {
     /// Quit after this many presented frames (0: run until closed). With a limit, every
     /// presented frame is announced on stdout as `presented frame N` (for tests and scripts).
     pub exit_after: u64,
+    /// Motion to apply every frame from the viewer's clock (`--animate`).
+    pub animation: Option<crate::Animation>,
 }
 
 /// The event loop of a display, and the instance extensions its windows need. Create it before
@@ -60,6 +62,7 @@ pub fn run(event_loop: EventLoop<()>, gpu: &Gpu, renderer: &mut Renderer, option
         last_title: Instant::now() - Duration::from_secs(1),
         fps_window: (Instant::now(), 0),
         fps: 0.0,
+        started: Instant::now(),
     };
     event_loop.set_control_flow(ControlFlow::Poll);
     let ran = event_loop.run_app(&mut app).context("event loop");
@@ -134,6 +137,7 @@ struct App<'a> {
     last_title: Instant,
     fps_window: (Instant, u32),
     fps: f64,
+    started: Instant,
 }
 
 impl App<'_> {
@@ -168,6 +172,9 @@ impl App<'_> {
         if self.orbit_moved {
             // Only once the user moved it: the scene's own camera is kept bit-exact until then.
             self.renderer.set_camera(self.orbit.camera());
+        }
+        if let Some(a) = &self.options.animation {
+            a.apply(self.renderer, self.started.elapsed().as_secs_f32())?;
         }
         let timings = self.renderer.render_presenting(self.gpu, &image)?;
         window.pre_present_notify();
