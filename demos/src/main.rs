@@ -117,6 +117,12 @@ fn run() -> anyhow::Result<()> {
         (args.out, args.name) = (dir.clone(), "engine".into());
     }
     let animation = if args.animate { demos::Animation::for_scene(&args.scene, &scene) } else { None };
+    if animation.is_some() && args.technique.starts_with("reference") {
+        eprintln!(
+            "warning: the reference's triangle BVH is built once at the first pose; with --animate its \
+             triangle visibility does not follow the motion (sphere visibility does)"
+        );
+    }
     if args.animate && animation.is_none() {
         eprintln!("warning: scene '{}' has no animation (bunny and arm do); rendering it static", args.scene);
     }
