@@ -210,15 +210,7 @@ impl SphereBvh {
     /// parents re-bounded bottom-up by pair merges (SHEXP §6.3). Quality degrades as spheres move
     /// far from their build positions; rebuild then.
     pub fn refit(&mut self, spheres: &[Sphere]) -> Result<(), BlockerError> {
-        if spheres.len() != self.leaf_of_sphere.len() {
-            return Err(BlockerError::InvalidSphere {
-                index: spheres.len(),
-                reason: format!("refit with {} spheres, built with {}", spheres.len(), self.leaf_of_sphere.len()),
-            });
-        }
-        for (i, s) in spheres.iter().enumerate() {
-            s.validate(i)?;
-        }
+        crate::geom::validate_refit(spheres, self.leaf_of_sphere.len())?;
         for (s, &leaf) in spheres.iter().zip(&self.leaf_of_sphere) {
             self.nodes[leaf as usize].sphere = *s;
         }

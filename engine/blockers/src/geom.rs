@@ -56,6 +56,17 @@ impl Sphere {
     }
 }
 
+/// Input check of a refit (BVH or hierarchy): the same number of spheres as at build, each valid.
+pub(crate) fn validate_refit(spheres: &[Sphere], built: usize) -> Result<(), crate::BlockerError> {
+    if spheres.len() != built {
+        return Err(crate::BlockerError::InvalidSphere {
+            index: spheres.len(),
+            reason: format!("refit with {} spheres, built with {built}", spheres.len()),
+        });
+    }
+    spheres.iter().enumerate().try_for_each(|(i, s)| s.validate(i))
+}
+
 /// The angle between two (not necessarily unit) vectors, via atan2: accurate near 0 and π, where
 /// `acos(dot)` loses half the digits (pbrt's `AngleBetween`).
 pub fn angle_between(a: DVec3, b: DVec3) -> f64 {
