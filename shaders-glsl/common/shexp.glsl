@@ -112,18 +112,9 @@ void sh4_product(float a[16], float b[16], out float c[16]) {
     }
 }
 
-// a * a.
+// a * a (the product's v (a_j a_k + a_k a_j) is 2 v a_j a_k).
 void sh4_square(float a[16], out float c[16]) {
-    for (int i = 0; i < 16; ++i) {
-        c[i] = 0.0;
-    }
-    for (int e = 0; e < SH4_GAMMA_COUNT; ++e) {
-        uint p = SH4_GAMMA_IJK[e];
-        int i = int(p & 255u);
-        int j = int((p >> 8) & 255u);
-        int k = int(p >> 16);
-        c[i] += 2.0 * SH4_GAMMA_V[e] * a[j] * a[k];
-    }
+    sh4_product(a, a, c);
 }
 
 // ‖f̂‖: the norm without the DC coefficient (SHEXP Eq. 19).
