@@ -220,3 +220,69 @@ fn spheres_twin_matches_cpu() {
     ck.report("spheres twin");
     gpu.shutdown().expect("clean teardown");
 }
+
+// The SHEXP §6.2 self-shadowing rule (blocker_for_receiver) through tests/receiver_twin.comp (10 floats
+// in, 5 out): every branch — in front, behind, straddling, receiver inside with the centre in front and
+// behind — over random receivers, normals and spheres. The decision must agree exactly unless the f64
+// quantity it thresholds (h = (c − p)·n against 0 and ±r, |c − p| against r) lies within its f32 error
+// (16ε of the coordinates' magnitude); the blocker's centre and radius agree to 16ε of that magnitude
+// (a dot product, a few sums and a halving of f32 values).
+#[test]
+fn receiver_rule_twin_matches_cpu() {
+    const RIN: usize = 10;
+    const ROUT: usize = 5;
+    let mut rng = Pcg32::new(31, 7);
+    let mut cases: Vec<[f32; RIN]> = Vec::new();
+    let mut push = |p: [f64; 3], n: [f64; 3], s: [f64; 4]| {
+        let n = dv(n).normalize();
+        cases.push([p[0], p[1], p[2], n.x, n.y, n.z, s[0], s[1], s[2], s[3]].map(|v| v as f32));
+    };
+    // One of each branch, receiver at the origin with normal +Y.
+    for s in [
+        [0.0, 3.0, 0.0, 1.0],  // entirely in front: unaltered
+        [5.0, -2.0, 0.0, 1.0], // entirely behind: eliminated
+        [3.0, 0.5, 0.0, 1.0],  // straddling: the tangent sphere in front
+        [0.2, 0.5, 0.0, 1.0],  // receiver inside, centre in front: shrunk to tangency
+        [0.0, -0.5, 0.0, 1.0], // receiver inside, centre behind: eliminated
+        [1.0, 1.0, 1.0, 0.0],  // zero radius in front
+    ] {
+        push([0.0; 3], [0.0, 1.0, 0.0], s);
+    }
+    for _ in 0..600 {
+        let p = [rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0)];
+        let n = rng.unit_vector();
+        let c = [p[0] + rng.uniform(-2.0, 2.0), p[1] + rng.uniform(-2.0, 2.0), p[2] + rng.uniform(-2.0, 2.0)];
+        push(p, n, [c[0], c[1], c[2], rng.uniform(0.0, 2.0)]);
+    }
+    let gpu = test_gpu().expect("GPU");
+    let input: Vec<f32> = cases.iter().flatten().copied().collect();
+    let out = run_f32_kernel(&gpu, "tests/receiver_twin.comp", &input, cases.len() * ROUT, cases.len() as u32)
+        .expect("kernel");
+    gpu.shutdown().expect("clean teardown");
+    assert_all_finite(&out, ROUT);
+    let mut ck = Checker::default();
+    let mut undecided = 0;
+    for (ci, x) in cases.iter().enumerate() {
+        let f: Vec<f64> = x.iter().map(|v| *v as f64).collect();
+        let (p, n) = (dv([f[0], f[1], f[2]]), dv([f[3], f[4], f[5]]));
+        let s = Sphere::new(dv([f[6], f[7], f[8]]), f[9]);
+        let o = &out[ci * ROUT..(ci + 1) * ROUT];
+        let mag = p.abs().max_element() + s.center.abs().max_element() + s.radius + 1.0;
+        let tol = 16.0 * EPS * mag;
+        let h = (s.center - p).dot(n);
+        let near = |a: f64, b: f64| (a - b).abs() <= tol;
+        if near(h, 0.0) || near(h, s.radius) || near(h, -s.radius) || near(s.center.distance(p), s.radius) {
+            undecided += 1;
+            continue;
+        }
+        let want = geom::blocker_for_receiver(p, n, &s);
+        ck.exact("kept", ci, o[0], want.is_some() as u8 as f64);
+        if let Some(b) = want {
+            for (k, w) in [b.center.x, b.center.y, b.center.z, b.radius].into_iter().enumerate() {
+                ck.check(["cx", "cy", "cz", "r"][k], ci, o[1 + k], w, tol);
+            }
+        }
+    }
+    ck.report("receiver rule");
+    assert!(undecided * 20 < cases.len(), "{undecided} of {} cases undecided", cases.len());
+}
