@@ -25,6 +25,7 @@ layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 layout(std430, binding = 12) readonly buffer IsgParams {
     uvec4 isg_ints;
     vec4 isg_floats;
+    vec4 isg_shared;  // x: the shared gather's node-size threshold (radians), from prepare
 };
 
 #define ISG_LUT_FETCH(i) isg_table[i]
@@ -48,23 +49,15 @@ vec3 shade_point(ShadePoint sp) {
     float cos_mu = isg_floats.w;
     vec3 n = sp.normal;
 
-    // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole
-    // below the threshold in widths of the finest lobe grid of this point. Points whose blockers
-    // overflow the list (ISG_MAX_BLOCKERS) traverse once per lobe instead.
+    // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole below
+    // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
+    // whose blockers overflow the list (ISG_MAX_BLOCKERS) traverse once per lobe instead.
     uint k_count = isg_ints.x;
     IsgBlockers blockers;
     blockers.count = 0;
     blockers.dropped = 0;
     if (spheres > 0u) {
-        float finest = ISG_PI;
-        for (uint k = 0u; k < k_count; ++k) {
-            EnvLobe l = env_lobes[k];
-            vec3 axis;
-            float lambda;
-            sg_product_log(l.axis_lambda.xyz, l.axis_lambda.w, 1.0, n, cos_lambda, cos_mu, axis, lambda);
-            finest = min(finest, 2.0 * isg_limiting_angle(lambda, st.log_epsilon) / float(st.side));
-        }
-        isg_gather(sp.position, n, n, ISG_HALF_PI, st.node_threshold * finest, spheres, blockers);
+        isg_gather(sp.position, n, n, ISG_HALF_PI, isg_shared.x, spheres, blockers);
     }
     vec3 e = vec3(0.0);
     vec3 e_full = vec3(0.0);

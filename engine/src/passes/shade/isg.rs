@@ -153,6 +153,10 @@ pub struct GpuIsgParams {
     pub ints: [u32; 4],
     /// ln ε, node threshold, cosine-SG λ, cosine-SG μ.
     pub floats: [f32; 4],
+    /// x: angular radius (radians) below which the shared gather of the diffuse lobes takes a BVH node
+    /// whole: `threshold` widths of the finest grid any diffuse product lobe can have (its sharpness
+    /// is at most max_k λ_k + λ_cos), computed once here instead of per point.
+    pub gather: [f32; 4],
 }
 
 /// One environment lobe: `(axis, λ)` then `(μ rgb, 0)` (std430 vec4 pairs).
@@ -230,6 +234,7 @@ impl Technique for Isg {
                 scene.sphere_count,
             ],
             floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
+            gather: [gather_take_whole(&self.lobes, o) as f32, 0.0, 0.0, 0.0],
         };
         // Build every piece; on failure free what was made.
         let prefiltered = super::none::prefiltered_atlas(gpu, "isg-prefiltered", &scene.environment_cpu)?;
@@ -306,6 +311,13 @@ pub fn fit_environment(env: &engine_math::envmap::LatLongMap, k: usize, refine: 
         return (greedy, error);
     }
     refine_envmap_sgs(&small, &greedy, refine)
+}
+
+/// The shared gather's node-size threshold (radians): `threshold` patch widths of the finest grid a
+/// diffuse product lobe can have. |λ_k a_k + λ_cos n| ≤ λ_k + λ_cos, and the grid narrows as λ grows.
+pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
+    let sharpest = lobes.iter().map(|l| l.lambda).fold(0.0, f64::max) + COSINE_SG_LAMBDA;
+    o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
 }
 
 /// A storage buffer may not be empty: K ≥ 1 always, but keep one zero lobe if a fit returned none.
@@ -566,7 +578,8 @@ mod tests {
 
     #[test]
     fn layouts() {
-        assert_eq!(std::mem::size_of::<GpuIsgParams>(), 32);
+        assert_eq!(std::mem::size_of::<GpuIsgParams>(), 48);
+        assert_eq!(std::mem::offset_of!(GpuIsgParams, gather), 32);
         assert_eq!(std::mem::size_of::<GpuSgLobe>(), 32);
     }
 
