@@ -462,11 +462,6 @@ fn scale_v(a: Vec3, s: f64) -> Vec3 {
     scale(a, s)
 }
 
-/// Relative L2 error of the K-lobe greedy fit for K = 1..=k_max (the curve a report prints).
-pub fn envmap_fit_error_curve(map: &LatLongMap, k_max: usize) -> Vec<f64> {
-    fit_envmap_sgs(map, k_max).1
-}
-
 // ---------------------------------------------------------------------------------------------
 // BRDF lobes (Wang et al. 2009 warp, as used by the ISG paper, Sec. 3 and 6).
 

@@ -179,21 +179,11 @@ pub struct Isg {
     pipelines: TargetPipelines,
     pub options: IsgOptions,
     prepared: Option<Prepared>,
-    /// The fitted environment lobes (for reports and the CPU twin).
-    pub lobes: Vec<SgRgb>,
-    /// Relative L2 error of the K-lobe environment fit.
-    pub fit_error: f64,
 }
 
 impl Isg {
     pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
-        Ok(Self {
-            pipelines: TargetPipelines::new(gpu, "isg")?,
-            options,
-            prepared: None,
-            lobes: Vec::new(),
-            fit_error: 0.0,
-        })
+        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, options, prepared: None })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -214,11 +204,8 @@ impl Technique for Isg {
 
     fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
         self.release(gpu);
-        let (lobes, error) = fit_environment(&scene.environment_cpu, self.options.k, self.options.refine);
-        self.lobes = lobes;
-        self.fit_error = error;
-        let lobes: Vec<GpuSgLobe> = self
-            .lobes
+        let (fitted, _) = fit_environment(&scene.environment_cpu, self.options.k, self.options.refine);
+        let lobes: Vec<GpuSgLobe> = fitted
             .iter()
             .map(|l| GpuSgLobe {
                 axis_lambda: [l.axis[0] as f32, l.axis[1] as f32, l.axis[2] as f32, l.lambda as f32],
@@ -234,7 +221,7 @@ impl Technique for Isg {
                 scene.sphere_count,
             ],
             floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
-            gather: [gather_take_whole(&self.lobes, o) as f32, 0.0, 0.0, 0.0],
+            gather: [gather_take_whole(&fitted, o) as f32, 0.0, 0.0, 0.0],
         };
         // Build every piece; on failure free what was made.
         let prefiltered = super::none::prefiltered_atlas(gpu, "isg-prefiltered", &scene.environment_cpu)?;
