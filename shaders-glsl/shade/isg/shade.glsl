@@ -30,6 +30,14 @@ layout(std430, binding = 12) readonly buffer IsgParams {
 
 #define ISG_LUT_FETCH(i) isg_table[i]
 #define ISG_BVH_NODE(i) bvh_nodes[i]
+// Thin shells (common/isg_thin.glsl): world-space triangles and clusters from the thin_shells pass.
+#include "../../common/thin.glsl"
+layout(std430, binding = 14) readonly buffer ThinTriangles { ThinTriangle thin_triangles[]; };
+layout(std430, binding = 15) readonly buffer ThinClusters { ThinCluster thin_clusters[]; };
+#define ISG_THIN
+#define ISG_THIN_TRIANGLE(i) thin_triangles[i]
+#define ISG_THIN_CLUSTER(i) thin_clusters[i]
+#define ISG_THIN_CLUSTER_COUNT uint(thin_clusters.length())
 #include "../../common/isg_visibility.glsl"
 
 // (1 − e^{−2λ})/λ · 2π: the sphere integral of a unit-amplitude SG.
@@ -48,6 +56,7 @@ vec3 shade_point(ShadePoint sp) {
     float cos_lambda = isg_floats.z;
     float cos_mu = isg_floats.w;
     vec3 n = sp.normal;
+    isg_thin_begin(sp.position, n);
 
     // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole below
     // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
@@ -91,7 +100,7 @@ vec3 shade_point(ShadePoint sp) {
     float s = sp.material.specular.w;
     vec3 spec = blinn_phong_prefiltered(prefiltered_env, n, sp.view, ks, s);
     float ratio = 1.0;
-    if (spheres > 0u) {
+    if (spheres > 0u || isg_thin_present()) {
         float ndv = max(abs(dot(n, sp.view)), 1e-6);
         vec3 r = normalize(2.0 * dot(n, sp.view) * n - sp.view);
         vec3 axis;

@@ -18,8 +18,9 @@
 //! `ratio` (default: exact irradiance times the lobes' visibility ratio) or `sg` (the paper's Eq. 5),
 //! `refine` rounds of coordinate descent on the greedy environment fit (6; 0 = greedy only).
 //!
-//! Not modelled: thin shells (triangles rasterized into patches, §5) and anisotropic BRDF lobes.
-//! [`cpu`] is the f64 twin of the whole per-point integral.
+//! Thin shells (§5): triangles of meshes marked thin are rasterized into the patch grid
+//! (shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
+//! Not modelled: anisotropic BRDF lobes. [`cpu`] is the f64 twin of the whole per-point integral.
 
 use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Image, Recorder, Result};
@@ -28,6 +29,8 @@ use crate::tables::MathTables;
 use engine_math::prefilter::resample;
 use engine_math::sg::{fit_envmap_sgs, refine_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
 use engine_math::table_gen::MathTable;
+
+pub mod thin;
 
 /// Which ISG evaluator computes Ŝ at patch corners.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -277,6 +280,8 @@ impl Technique for Isg {
                 Binding::buffer("IsgTable", &lut.buffer),
                 Binding::buffer("BvhNodes", &inputs.scene.bvh_nodes),
                 Binding::buffer("IsgParams", &p.params),
+                Binding::buffer("ThinTriangles", &inputs.scene.thin_triangles),
+                Binding::buffer("ThinClusters", &inputs.scene.thin_clusters),
             ],
         )
     }
@@ -456,6 +461,21 @@ pub mod cpu {
         spheres: &[Sphere],
         lut: &IsgLut,
     ) -> (f64, f64) {
+        occlusion_with_thin(p, n, axis, lambda, o, spheres, &[], lut)
+    }
+
+    /// [`occlusion`] with thin-shell triangles (world space) among the blockers ([`super::thin`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn occlusion_with_thin(
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        lambda: f64,
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+        lut: &IsgLut,
+    ) -> (f64, f64) {
         let g = grid(axis, lambda, o);
         let mut mask = vec![vec![false; g.side]; g.side];
         let mut horizon = 0.0;
@@ -481,6 +501,7 @@ pub mod cpu {
             mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
             marked = true;
         }
+        marked |= super::thin::mark_thin(&mut mask, &g, p, n, thin);
         (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
     }
 
@@ -521,27 +542,40 @@ pub mod cpu {
         spheres: &[Sphere],
         lut: &IsgLut,
     ) -> ([f64; 3], f64) {
+        shade_diffuse_and_ratio_with_thin(pt, lobes, o, spheres, &[], lut)
+    }
+
+    /// [`shade_diffuse_and_ratio`] with thin-shell triangles (world space) among the blockers.
+    pub fn shade_diffuse_and_ratio_with_thin(
+        pt: &Point,
+        lobes: &[SgRgb],
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+        lut: &IsgLut,
+    ) -> ([f64; 3], f64) {
         let n = pt.normal;
         let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
         let mut e = [0.0; 3];
         for l in lobes {
             let prod = sg_product_log(&Sg::new(l.axis, l.lambda, 1.0), &cosine);
             let axis = DVec3::from_array(prod.axis);
-            let (_, occ) = occlusion(pt.position, n, axis, prod.lambda, o, spheres, lut);
+            let (_, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
             let v = visible_integral(prod.log_mu, prod.lambda, occ);
             for (ec, mu) in e.iter_mut().zip(l.mu) {
                 *ec += mu * v;
             }
         }
         let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
-        let ratio = if pt.specular.iter().all(|&k| k == 0.0) || spheres.is_empty() {
+        let ratio = if pt.specular.iter().all(|&k| k == 0.0) || (spheres.is_empty() && thin.is_empty()) {
             1.0
         } else {
             let ndv = n.dot(pt.view).abs().max(1e-6);
             let r = (2.0 * n.dot(pt.view) * n - pt.view).normalize();
             let lambda = pt.shininess / (4.0 * ndv);
             let prod = sg_product_log(&Sg::new([r.x, r.y, r.z], lambda, 1.0), &cosine);
-            let (hor, occ) = occlusion(pt.position, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+            let axis = DVec3::from_array(prod.axis);
+            let (hor, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
             let full = 2.0 * PI * sphere_unit(prod.lambda);
             let above = full - isg_normalization(prod.lambda) * hor;
             if above > 0.0 {
