@@ -133,8 +133,21 @@ mod tests {
     use engine_math::isg::IsgLut;
 
     fn square(y: f64, half: f64) -> Vec<[DVec3; 3]> {
-        let q = |x: f64, z: f64| DVec3::new(x, y, z);
-        vec![[q(-half, -half), q(half, -half), q(half, half)], [q(-half, -half), q(half, half), q(-half, half)]]
+        grid_square(y, half, 1)
+    }
+
+    /// A square at height y, n × n quads, two triangles each.
+    fn grid_square(y: f64, half: f64, n: usize) -> Vec<[DVec3; 3]> {
+        let s = |i: usize| -half + 2.0 * half * i as f64 / n as f64;
+        let q = |i: usize, j: usize| DVec3::new(s(i), y, s(j));
+        let mut out = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                out.push([q(i, j), q(i + 1, j), q(i + 1, j + 1)]);
+                out.push([q(i, j), q(i + 1, j + 1), q(i, j + 1)]);
+            }
+        }
+        out
     }
 
     fn count(mask: &[Vec<bool>]) -> usize {
@@ -146,8 +159,16 @@ mod tests {
     #[test]
     fn marks_exactly_the_patches_whose_centre_hits() {
         let o = IsgOptions { side: 32, ..IsgOptions::default() };
-        let tris = square(1.0, 0.4);
-        for (lambda, axis) in [(1.0, DVec3::Y), (30.0, DVec3::new(0.2, 1.0, 0.1).normalize()), (400.0, DVec3::Y)] {
+        for (lambda, axis, n) in [
+            (1.0, DVec3::Y, 1),
+            (30.0, DVec3::new(0.2, 1.0, 0.1).normalize(), 1),
+            (400.0, DVec3::Y, 1),
+            (1.0, DVec3::Y, 12),
+            (2.0, DVec3::new(0.7, 0.5, -0.2).normalize(), 12),
+            (30.0, DVec3::new(0.2, 1.0, 0.1).normalize(), 12),
+            (400.0, DVec3::new(0.05, 1.0, -0.02).normalize(), 40),
+        ] {
+            let tris = grid_square(1.0, 0.4, n);
             let g = grid(axis, lambda, &o);
             let mut mask = vec![vec![false; g.side]; g.side];
             assert!(mark_thin(&mut mask, &g, DVec3::ZERO, DVec3::Y, &tris));
@@ -163,6 +184,43 @@ mod tests {
                 }
             }
             assert!(count(&mask) > 0, "λ {lambda}: nothing marked");
+        }
+    }
+
+    /// Random small triangles around a receiver (near its horizon, near the poles of the grid's
+    /// parameterization, straddling): the bounding-box restriction loses nothing against testing every patch.
+    #[test]
+    fn bounding_box_loses_no_patch() {
+        let o = IsgOptions { side: 16, ..IsgOptions::default() };
+        let mut rng = engine_math::rng::Pcg32::new(3, 9);
+        let mut u = || rng.next_f64() * 2.0 - 1.0;
+        for case in 0..400 {
+            let n = DVec3::new(0.3 * u(), 1.0, 0.3 * u()).normalize();
+            let axis = (n + DVec3::new(0.5 * u(), 0.5 * u(), 0.5 * u())).normalize();
+            let lambda = [0.5, 3.0, 30.0][case % 3];
+            let g = grid(axis, lambda, &o);
+            let c = DVec3::new(u(), 0.3 * u(), u()) * 0.3;
+            let s = 0.05 + 0.1 * (u() + 1.0);
+            let t = [c, c + DVec3::new(u(), u(), u()) * s, c + DVec3::new(u(), u(), u()) * s];
+            let mut mask = vec![vec![false; g.side]; g.side];
+            mark_triangle(&mut mask, &g, n, t[0], t[1], t[2]);
+            let mut brute = vec![vec![false; g.side]; g.side];
+            if let Some(orient) = blocks_receiver(t[0], t[1], t[2]) {
+                if t.iter().any(|v| v.dot(n) > 0.0) {
+                    let local = |v: DVec3| DVec3::new(v.dot(g.x), v.dot(g.y), v.dot(g.z));
+                    let e = [
+                        local(orient * t[0].cross(t[1] - t[0])),
+                        local(orient * t[1].cross(t[2] - t[1])),
+                        local(orient * t[2].cross(t[0] - t[2])),
+                    ];
+                    for (i, row) in brute.iter_mut().enumerate() {
+                        for (j, b) in row.iter_mut().enumerate() {
+                            *b = inside(&g, i, j, &e);
+                        }
+                    }
+                }
+            }
+            assert_eq!(mask, brute, "case {case}");
         }
     }
 
