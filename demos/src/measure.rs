@@ -66,6 +66,56 @@ pub struct ReferenceImage {
     pub seconds: f64,
 }
 
+const CACHE_MAGIC: &[u8; 8] = b"REFIMG01";
+
+impl ReferenceImage {
+    /// Write the image to a cache file (little-endian: magic, width·height, the report, ms per sample,
+    /// seconds, then RGBA32F, RGBA8 and the mask bytes).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let mut b = Vec::with_capacity(64 + self.hdr.len() * 4 + self.ldr.len() + self.mask.len());
+        b.extend_from_slice(CACHE_MAGIC);
+        b.extend_from_slice(&(self.mask.len() as u64).to_le_bytes());
+        b.extend_from_slice(&self.report.samples.to_le_bytes());
+        b.extend_from_slice(&self.report.frames.to_le_bytes());
+        b.extend_from_slice(&self.report.relative_stderr.to_le_bytes());
+        b.push(self.report.converged as u8);
+        b.extend_from_slice(&self.ms_per_sample.to_le_bytes());
+        b.extend_from_slice(&self.seconds.to_le_bytes());
+        b.extend(self.hdr.iter().flat_map(|v| v.to_le_bytes()));
+        b.extend_from_slice(&self.ldr);
+        b.extend(self.mask.iter().map(|&m| m as u8));
+        std::fs::write(path, b).with_context(|| format!("writing {}", path.display()))
+    }
+
+    /// Read a file written by [`ReferenceImage::save`]; `pixels` must match.
+    pub fn load(path: &Path, visibility: Visibility, pixels: usize) -> Result<Self> {
+        let b = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        let bad = || anyhow::anyhow!("{}: not a reference cache of {pixels} pixels", path.display());
+        let header = 8 + 8 + 4 + 4 + 8 + 1 + 8 + 8;
+        if b.len() != header + pixels * (16 + 4 + 1) || &b[..8] != CACHE_MAGIC {
+            return Err(bad());
+        }
+        let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().unwrap());
+        let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().unwrap());
+        let f64_at = |o: usize| f64::from_bits(u64_at(o));
+        if u64_at(8) as usize != pixels {
+            return Err(bad());
+        }
+        let report = ConvergeReport {
+            samples: u32_at(16),
+            frames: u32_at(20),
+            relative_stderr: f64_at(24),
+            converged: b[32] != 0,
+        };
+        let (ms_per_sample, seconds) = (f64_at(33), f64_at(41));
+        let body = &b[header..];
+        let hdr = body[..pixels * 16].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        let ldr = body[pixels * 16..pixels * 20].to_vec();
+        let mask = body[pixels * 20..].iter().map(|&m| m != 0).collect();
+        Ok(Self { visibility, hdr, ldr, mask, report, ms_per_sample, seconds })
+    }
+}
+
 pub fn visibility_name(v: Visibility) -> &'static str {
     match v {
         Visibility::Triangles => "triangles",

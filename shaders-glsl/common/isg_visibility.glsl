@@ -235,6 +235,38 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
     return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
 }
 
+// Traverse the BVH from p over the hemisphere above n and mark every blocker's cap (after the
+// self-shadowing rule) straight into the grid's mask: no blocker list, so no overflow. Nodes below
+// `take_whole` radians of angular radius are taken whole, leaves always.
+void isg_mark_traversed(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 p, vec3 n, float take_whole,
+                        uint sphere_count) {
+    BvhCursor cur = bvh_cursor_begin(sphere_count);
+    uint node;
+    while (bvh_cursor_next(cur, node)) {
+        BvhNode nd = ISG_BVH_NODE(node);
+        vec4 s = bvh_sphere(nd);
+        if (!bvh_cone_hits(p, g.z, g.cone, s)) continue;
+        if (!bvh_is_leaf(nd)) {
+            float psi = sphere_subtended_half_angle(p, s);
+            if (psi >= take_whole && bvh_cursor_push_children(cur, nd.left, nd.right)) continue;
+        }
+        vec4 blk;
+        if (!blocker_for_receiver(p, n, s, blk) || blk.w <= 0.0) continue;
+        vec3 d = blk.xyz - p;
+        float dist = length(d);
+        if (dist <= 0.0) continue;
+        isg_mark_cap(mask, g, d / dist, sphere_subtended_half_angle(p, blk));
+    }
+}
+
+// ∫ over patch row i of sin²θ dθ: with ∫ sin φ dφ over a run, the cosine-weighted solid angle of the
+// patches of the hemisphere grid (Ω = (sin θ cos φ, cos θ, sin θ sin φ), n = z: cos = sin θ sin φ).
+float isg_row_sin2(IsgGrid g, int i) {
+    float t0 = g.lo + float(i) * g.delta;
+    float t1 = t0 + g.delta;
+    return 0.5 * ((t1 - sin(t1) * cos(t1)) - (t0 - sin(t0) * cos(t0)));
+}
+
 // The same with the lobe's own traversal (cone and node threshold from its own grid).
 vec2 isg_occlusion(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint sphere_count) {
     IsgBlockers b;

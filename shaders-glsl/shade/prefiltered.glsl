@@ -12,6 +12,14 @@ vec3 prefiltered_level(sampler2D atlas, vec3 r, float level) {
     return textureLod(atlas, vec2(uv.x, (level + v) / levels), 0.0).rgb;
 }
 
+// Irradiance E(n) from the pole-inclusive grid (engine_math::prefilter::IrradianceGrid): rows at
+// θ_j = π j/(rows − 1), so the first and last rows' centres sit on the poles.
+vec3 irradiance_lookup(sampler2D grid, vec3 n) {
+    vec2 uv = envmap_uv(n);
+    float rows = float(textureSize(grid, 0).y);
+    return textureLod(grid, vec2(uv.x, (uv.y * (rows - 1.0) + 0.5) / rows), 0.0).rgb;
+}
+
 // Normalized prefiltered radiance around r for an SG of sharpness λ, interpolated in log λ.
 vec3 prefiltered_lookup(sampler2D atlas, vec3 r, float lambda) {
     float t = clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.size.w) - 1.0);

@@ -48,8 +48,8 @@ fn assert_finite(hdr: &[f32], what: &str) {
     assert!(hdr.iter().all(|v| v.is_finite()), "{what}: non-finite pixel");
 }
 
-// Without blockers the visibility ratios are 1: `diffuse=ratio` (the default) is `none` up to f32
-// rounding; the paper's `diffuse=sg` differs by the SG representation of the lighting and the cosine
+// Without blockers nothing is occluded: `diffuse=map` (the default) and `diffuse=ratio` are `none` up
+// to f32 rounding; the paper's `diffuse=sg` differs by the SG representation of the lighting and the cosine
 // (stated bound below, measured on the sphere scene's smooth sky).
 #[test]
 fn no_blockers_equals_none() {
@@ -57,14 +57,17 @@ fn no_blockers_equals_none() {
     let scene = demos::sphere_scene(48);
     let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
     let (isg, _) = engine_tests::render(&gpu, &scene, settings("isg"));
+    let (isg_ratio, _) = engine_tests::render(&gpu, &scene, settings("isg:diffuse=ratio"));
     let (isg_sg, _) = engine_tests::render(&gpu, &scene, settings("isg:diffuse=sg"));
     gpu.shutdown().expect("clean teardown");
-    for (img, what) in [(&isg, "isg"), (&isg_sg, "isg sg")] {
+    for (img, what) in [(&isg, "isg"), (&isg_ratio, "isg ratio"), (&isg_sg, "isg sg")] {
         assert_finite(img, what);
     }
     let all = |_| true;
-    let same = engine_tests::relative_rmse(&isg, &none, all);
-    assert!(same < 1e-5, "isg without blockers differs from none: relative RMSE {same}");
+    for (img, what) in [(&isg, "map"), (&isg_ratio, "ratio")] {
+        let same = engine_tests::relative_rmse(img, &none, all);
+        assert!(same < 1e-5, "isg ({what}) without blockers differs from none: relative RMSE {same}");
+    }
     let sg = engine_tests::relative_rmse(&isg_sg, &none, all);
     eprintln!("diffuse=sg vs none (representation error): relative RMSE {:.2} %", 100.0 * sg);
     // The L2-fitted cosine SG integrates to 1.083 π; with the K = 10 fit of a smooth sky the
@@ -82,36 +85,39 @@ fn cap_cosine_fraction(p: DVec3, c: DVec3, r: f64) -> Option<f64> {
 }
 
 // One sphere blocker over a Lambertian plane under a constant environment L: the plane shades to
-// ρL (1 − h r²/d³). The error comes from the cosine SG (the lobes' ratio weights the cap by the SG
-// shape instead of the exact cosine), the patch grid (16 × 16: the cap is a set of patch centres) and
-// the sphere set being the sphere itself; the thresholds below are the measured errors with margin.
+// ρL (1 − h r²/d³). `diffuse=map` (default, 32 × 32 patches over the hemisphere) errs only by the patch
+// grid (the cap is a set of patch centres); `diffuse=ratio` (16 × 16) also by the cosine SG (the lobes'
+// ratio weights the cap by the SG shape instead of the exact cosine). The sphere set is the sphere
+// itself. The thresholds are the measured errors with margin.
 #[test]
 fn one_sphere_blocker_constant_environment() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.6f32, 1.5f32);
     let (c, r) = (Vec3::new(0.0, 0.8, 0.0), 0.5f32);
     let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
-    let (hdr, g) = render_with_gbuffer(&gpu, &scene, "isg");
-    gpu.shutdown().expect("clean teardown");
-    assert_finite(&hdr, "isg");
-    let rho_l = (albedo * l) as f64;
-    let (mut sum2, mut ref2, mut worst, mut count, mut shadowed) = (0.0, 0.0, 0.0f64, 0, 0);
-    for (i, px) in g.iter().enumerate() {
-        let Some((p, _, 0)) = *px else { continue };
-        let Some(f) = cap_cosine_fraction(p, c.as_dvec3(), r as f64) else { continue };
-        let expected = rho_l * (1.0 - f);
-        let got = rgb(&hdr, i)[1];
-        sum2 += (got - expected).powi(2);
-        ref2 += expected * expected;
-        worst = worst.max((got - expected).abs() / rho_l);
-        count += 1;
-        shadowed += (f > 0.1) as usize;
+    for (spec, rmse_bound, max_bound) in [("isg", 0.005, 0.02), ("isg:diffuse=ratio,patches=16", 0.03, 0.10)] {
+        let (hdr, g) = render_with_gbuffer(&gpu, &scene, spec);
+        assert_finite(&hdr, spec);
+        let rho_l = (albedo * l) as f64;
+        let (mut sum2, mut ref2, mut worst, mut count, mut shadowed) = (0.0, 0.0, 0.0f64, 0, 0);
+        for (i, px) in g.iter().enumerate() {
+            let Some((p, _, 0)) = *px else { continue };
+            let Some(f) = cap_cosine_fraction(p, c.as_dvec3(), r as f64) else { continue };
+            let expected = rho_l * (1.0 - f);
+            let got = rgb(&hdr, i)[1];
+            sum2 += (got - expected).powi(2);
+            ref2 += expected * expected;
+            worst = worst.max((got - expected).abs() / rho_l);
+            count += 1;
+            shadowed += (f > 0.1) as usize;
+        }
+        let rmse = (sum2 / ref2).sqrt();
+        eprintln!("{spec}: one sphere, constant environment: {count} pixels ({shadowed} shadowed > 10 %), relative RMSE {:.2} %, max error {:.2} % of ρL", 100.0 * rmse, 100.0 * worst);
+        assert!(shadowed > 50, "only {shadowed} pixels in noticeable shadow");
+        assert!(rmse < rmse_bound, "{spec}: relative RMSE {rmse}");
+        assert!(worst < max_bound, "{spec}: max error {worst} of ρL");
     }
-    let rmse = (sum2 / ref2).sqrt();
-    eprintln!("one sphere, constant environment: {count} pixels ({shadowed} shadowed > 10 %), relative RMSE {:.2} %, max error {:.2} % of ρL", 100.0 * rmse, 100.0 * worst);
-    assert!(shadowed > 50, "only {shadowed} pixels in noticeable shadow");
-    assert!(rmse < 0.03, "relative RMSE {rmse}");
-    assert!(worst < 0.10, "max error {worst} of ρL");
+    gpu.shutdown().expect("clean teardown");
 }
 
 // The GPU pass against the f64 twin of the whole per-point integral at the G-buffer's receivers:
@@ -167,6 +173,45 @@ fn gpu_matches_the_f64_twin() {
         eprintln!("{spec}: {} samples, 95th percentile {p95:.2e}, max {max:.2e}", errs.len());
         assert!(errs.len() > 300, "too few receivers");
         assert!(p95 < 2e-3 && max < 0.05, "{spec}: GPU vs twin relative error p95 {p95}, max {max}");
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
+// `diffuse=map` against its f64 twin: under a constant environment L every prefiltered lookup is L,
+// so the GPU pixel must be the unshadowed `none` pixel minus ρ/π L Σ w over the twin's occluded
+// patches (cpu::map_occluded_patches), every BVH node opened. Sphere and receivers as above, plus a
+// second sphere straddling the plane; bounds as for the SG twin (patch flips on cap boundaries).
+#[test]
+fn map_diffuse_matches_the_f64_twin() {
+    let gpu = engine_tests::gpu();
+    let (albedo, l) = (0.7f64, 1.3f64);
+    // Above the plane, and straddling it (receivers inside the sphere: the self-shadowing rules).
+    for (c, r) in [(Vec3::new(0.2, 0.6, -0.1), 0.45f32), (Vec3::new(0.2, 0.25, -0.1), 0.45)] {
+        let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l as f32; 3]), albedo as f32, c, r);
+        let spheres = [Sphere::new(c.as_dvec3(), r as f64)];
+        let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
+        for side in [8usize, 32] {
+            let spec = format!("isg:threshold=0,patches={side}");
+            let (hdr, g) = render_with_gbuffer(&gpu, &scene, &spec);
+            assert_finite(&hdr, &spec);
+            let o = IsgOptions { side, node_threshold: 0.0, ..IsgOptions::default() };
+            let (mut errs, mut occluded) = (Vec::new(), 0);
+            for (i, px) in g.iter().enumerate().step_by(3) {
+                let Some((p, n, 0)) = *px else { continue };
+                let w: f64 = cpu::map_occluded_patches(p, n, &o, &spheres).iter().map(|(_, w)| w).sum();
+                occluded += (w > 0.0) as usize;
+                let want = (rgb(&none, i)[0] - albedo / std::f64::consts::PI * l * w).max(0.0);
+                errs.push((rgb(&hdr, i)[0] - want).abs() / want.abs().max(1e-3));
+            }
+            errs.sort_by(f64::total_cmp);
+            let (p95, max) = (errs[errs.len() * 95 / 100], errs[errs.len() - 1]);
+            eprintln!(
+                "sphere {c} r {r}, {spec}: {} receivers ({occluded} occluded), p95 {p95:.2e}, max {max:.2e}",
+                errs.len()
+            );
+            assert!(occluded > 100, "too few occluded receivers: {occluded}");
+            assert!(p95 < 2e-3 && max < 0.05, "{spec}: GPU vs twin relative error p95 {p95}, max {max}");
+        }
     }
     gpu.shutdown().expect("clean teardown");
 }

@@ -37,8 +37,9 @@ struct Args {
     /// Override k_s of material 0.
     #[arg(long)]
     ks: Option<f32>,
-    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, or `none` (only
-    /// the techniques' times).
+    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, `unoccluded` (no
+    /// shadows: the techniques' lighting and BRDF representation error alone), or `none` (only the
+    /// techniques' times).
     #[arg(long, default_value = "both")]
     visibility: String,
     /// Refit mesh 0 (the bunny) with this many blocker spheres (cached in <out>/spheres/).
@@ -58,6 +59,11 @@ struct Args {
     /// Per-vertex shading for the techniques and the reference.
     #[arg(long)]
     per_vertex: bool,
+    /// Keep converged references in this folder, keyed by everything that determines them (scene, env, size,
+    /// material overrides, spheres, visibility, fraction, max spp), and reuse them. The fraction rule converges
+    /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
+    #[arg(long)]
+    reference_cache: Option<PathBuf>,
 }
 
 fn main() {
@@ -82,8 +88,9 @@ fn run() -> Result<()> {
         "spheres" => vec![("spheres", Visibility::Spheres)],
         "triangles" => vec![("triangles", Visibility::Triangles)],
         "both" => vec![("spheres", Visibility::Spheres), ("triangles", Visibility::Triangles)],
+        "unoccluded" => vec![("unoccluded", Visibility::Unoccluded)],
         "none" => Vec::new(),
-        v => bail!("--visibility {v}: use spheres, triangles or both"),
+        v => bail!("--visibility {v}: use spheres, triangles, both, unoccluded or none"),
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(count) = args.spheres {
@@ -124,6 +131,7 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         eprintln!("rendering {spec} ({} frames)...", args.frames);
         let m = measure::measure_technique(gpu, scene, settings(args, spec), args.frames)?;
         engine::output::write_png(&args.out.join(format!("{}.png", file_stem(spec))), w, h, &m.ldr)?;
+        engine::output::write_exr(&args.out.join(format!("{}.exr", file_stem(spec))), w, h, &m.hdr)?;
         measured.push(m);
     }
     println!(
@@ -153,7 +161,29 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             max_spp: args.max_spp,
             samples_per_frame: 16,
         };
-        let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
+        let cache = args.reference_cache.as_ref().map(|dir| {
+            let key = format!(
+                "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}",
+                args.scene, args.env, w, h, args.gloss, args.ks, args.spheres, args.fraction, args.max_spp
+            );
+            let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
+            dir.join(format!("{}-{vis_name}-{hash:016x}.refimg", args.scene))
+        });
+        let cached = cache.as_ref().filter(|p| p.exists()).map(|p| {
+            eprintln!("reference from the cache {}", p.display());
+            measure::ReferenceImage::load(p, *vis, (w * h) as usize)
+        });
+        let r = match cached {
+            Some(r) => r?,
+            None => {
+                let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
+                if let Some(p) = &cache {
+                    std::fs::create_dir_all(p.parent().unwrap())?;
+                    r.save(p)?;
+                }
+                r
+            }
+        };
         println!(
             "reference ({vis_name}): {} spp in {:.0} s, relative standard error {:.3} % ({}converged), {:.1} ms per sample per pixel-frame",
             r.report.samples,
@@ -163,6 +193,7 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             r.ms_per_sample
         );
         engine::output::write_png(&args.out.join(format!("reference-{vis_name}.png")), w, h, &r.ldr)?;
+        engine::output::write_exr(&args.out.join(format!("reference-{vis_name}.exr")), w, h, &r.hdr)?;
         println!("| technique | vs {vis_name} reference: rel. RMSE % | minus reference noise % | max error | FLIP mean | shade ms | ref. samples at that time |");
         println!("|---|---|---|---|---|---|---|");
         for m in &measured {

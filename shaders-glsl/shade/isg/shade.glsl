@@ -20,7 +20,8 @@ struct EnvLobe {
 layout(std430, binding = 9) readonly buffer EnvSgs { EnvLobe env_lobes[]; };
 layout(std430, binding = 10) readonly buffer IsgTable { vec4 isg_table[]; };
 layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
-// ints: K, patches per side, evaluator (bit 0: 0 table, 1 paper) | diffuse ratio (bit 1), sphere count;
+// ints: K, patches per side, evaluator (bit 0: 0 table, 1 paper) | diffuse mode (bits 1–2: 0 sg,
+// 1 ratio, 2 map), sphere count;
 // floats: ln ε, node threshold (patch widths), cosine-SG λ, cosine-SG μ.
 layout(std430, binding = 12) readonly buffer IsgParams {
     uvec4 isg_ints;
@@ -45,11 +46,45 @@ float isg_full_integral(float lambda) {
     return 2.0 * PI * sg_unit_integral_over_2pi(lambda);
 }
 
+// Diffuse mode `map`: E(n) minus the light of the occluded patches of one P × P grid over the
+// hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
+// matched to the patch) times its exact cosine-weighted solid angle.
+vec3 isg_map_irradiance(vec3 p, vec3 n, IsgSettings st, uint spheres) {
+    vec3 irr = irradiance_lookup(irradiance_map, n);
+    if (spheres == 0u) return irr;
+    IsgGrid g = isg_grid(n, 0.0, st);
+    uint mask[ISG_MAX_SIDE];
+    for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
+    isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
+    // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
+    float lambda_f = 12.0 / (g.delta * g.delta);
+    vec3 occluded = vec3(0.0);
+    for (int i = 0; i < g.side; ++i) {
+        uint m = mask[i];
+        if (m == 0u) continue;
+        float a = isg_row_sin2(g, i);
+        float th = g.lo + (float(i) + 0.5) * g.delta;
+        float st_ = sin(th);
+        vec3 row_dir = cos(th) * g.y;
+        while (m != 0u) {
+            int j = findLSB(m);
+            m &= m - 1u;
+            float p0 = g.lo + float(j) * g.delta;
+            float ph = p0 + 0.5 * g.delta;
+            vec3 dir = st_ * cos(ph) * g.x + row_dir + st_ * sin(ph) * g.z;
+            float c = a * (cos(p0) - cos(p0 + g.delta));
+            occluded += prefiltered_lookup(prefiltered_env, dir, lambda_f) * c;
+        }
+    }
+    return max(irr - occluded, vec3(0.0));
+}
+
 vec3 shade_point(ShadePoint sp) {
     IsgSettings st;
     st.side = int(isg_ints.y);
     st.evaluator = int(isg_ints.z & 1u);
-    bool diffuse_ratio = (isg_ints.z & 2u) != 0u;
+    uint diffuse_mode = (isg_ints.z >> 1u) & 3u;
+    bool diffuse_ratio = diffuse_mode == 1u;
     st.log_epsilon = isg_floats.x;
     st.node_threshold = isg_floats.y;
     uint spheres = isg_ints.w;
@@ -61,11 +96,11 @@ vec3 shade_point(ShadePoint sp) {
     // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole below
     // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
     // whose blockers overflow the list (ISG_MAX_BLOCKERS) traverse once per lobe instead.
-    uint k_count = isg_ints.x;
+    uint k_count = diffuse_mode == 2u ? 0u : isg_ints.x;
     IsgBlockers blockers;
     blockers.count = 0;
     blockers.dropped = 0;
-    if (spheres > 0u) {
+    if (spheres > 0u && k_count > 0u) {
         isg_gather(sp.position, n, n, ISG_HALF_PI, isg_shared.x, spheres, blockers);
     }
     vec3 e = vec3(0.0);
@@ -86,13 +121,14 @@ vec3 shade_point(ShadePoint sp) {
     }
     if (diffuse_ratio) {
         // Exact irradiance times the lobes' visibility ratio (per channel; 1 where the fit is ~0).
-        vec3 irr = textureLod(irradiance_map, envmap_uv(n), 0.0).rgb;
+        vec3 irr = irradiance_lookup(irradiance_map, n);
         vec3 ratio = vec3(1.0);
         for (int c = 0; c < 3; ++c) {
             if (e_full[c] > 1e-20) ratio[c] = clamp(e[c] / e_full[c], 0.0, 1.0);
         }
         e = irr * ratio;
     }
+    if (diffuse_mode == 2u) e = isg_map_irradiance(sp.position, n, st, spheres);
     vec3 result = sp.material.diffuse.rgb / PI * e;
 
     vec3 ks = sp.material.specular.rgb;

@@ -1,5 +1,5 @@
 // Technique `none`: unshadowed environment lighting.
-// Diffuse: ρ_d/π · E(n) from the irradiance map (exact clamped-cosine convolution).
+// Diffuse: ρ_d/π · E(n) from the irradiance grid (exact clamped-cosine convolution, rows on the poles).
 // Specular: normalized Blinn-Phong as one warped SG against the SG-prefiltered environment
 // (ISG Eq. 10); see ../prefiltered.glsl.
 #include "../common.glsl"
@@ -8,7 +8,7 @@ layout(binding = 8) uniform sampler2D irradiance_map;
 layout(binding = 9) uniform sampler2D prefiltered_env;
 
 vec3 shade_point(ShadePoint sp) {
-    vec3 diffuse = sp.material.diffuse.rgb / PI * textureLod(irradiance_map, envmap_uv(sp.normal), 0.0).rgb;
+    vec3 diffuse = sp.material.diffuse.rgb / PI * irradiance_lookup(irradiance_map, sp.normal);
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return diffuse;
     return diffuse + blinn_phong_prefiltered(prefiltered_env, sp.normal, sp.view, ks, sp.material.specular.w);

@@ -1,9 +1,13 @@
 //! Technique `isg` (shaders-glsl/shade/isg): soft shadows from blocker spheres under all-frequency
 //! environment lighting with integral spherical Gaussians (Iwasaki et al. 2012).
 //!
-//! - Diffuse (paper §3–4, Eq. 5–6): the environment as K spherical Gaussians (a greedy least-squares
-//!   fit, engine-math `fit_envmap_sgs`), the clamped cosine as one SG; each product lobe is integrated
-//!   against the visibility as its unoccluded integral minus the ISG of its occluded patches.
+//! - Diffuse, default `diffuse=map` (ours): E(n) from the irradiance grid minus, over the occluded
+//!   patches of one P × P grid spanning the hemisphere above n, the prefiltered environment at each
+//!   patch centre (filter matched to the patch) times the patch's exact cosine-weighted solid angle.
+//!   The paper's diffuse (§3–4, Eq. 5–6, `diffuse=sg`): the environment as K spherical Gaussians (a
+//!   greedy least-squares fit, engine-math `fit_envmap_sgs`, refined), the clamped cosine as one SG;
+//!   each product lobe integrated against the visibility as its unoccluded integral minus the ISG of
+//!   its occluded patches; `diffuse=ratio` scales the exact E(n) by those lobes' visibility ratio.
 //! - Specular (Eq. 7–10): normalized Blinn-Phong as one warped SG, lighting from the SG-prefiltered
 //!   environment maps (Γ_L, the same maps as technique `none`), times the visibility ratio of Eq. 9
 //!   computed on the product of the BRDF lobe and the cosine lobe.
@@ -11,12 +15,12 @@
 //!   traversed with cone culling and a projected-size threshold; the SHEXP §6.2 self-shadowing rules
 //!   for spheres near the receiver. See shaders-glsl/common/isg_visibility.glsl.
 //!
-//! Options (`--technique isg:K=10,patches=16,eps=0.01,threshold=1,evaluator=table`):
-//! `K` environment lobes (1..32), `patches` per side P (P² patches, 1..32), `eps` the limiting-angle
-//! threshold ε, `threshold` the BVH node size (in patch widths) below which a node is taken whole,
-//! `evaluator` `table` (ours, engine-math IsgLut) or `paper` (the paper's sigmoid fit), `diffuse`
-//! `ratio` (default: exact irradiance times the lobes' visibility ratio) or `sg` (the paper's Eq. 5),
-//! `refine` rounds of coordinate descent on the greedy environment fit (6; 0 = greedy only).
+//! Options (`--technique isg:patches=32,eps=0.01,threshold=1,evaluator=table,diffuse=map,K=10`):
+//! `patches` per side P (P² patches, 1..32), `eps` the limiting-angle threshold ε, `threshold` the
+//! BVH node size (in patch widths) below which a node is taken whole, `evaluator` `table` (ours,
+//! engine-math IsgLut) or `paper` (the paper's sigmoid fit), `diffuse` `map` (default), `ratio` or
+//! `sg` (the paper's Eq. 5), and for `ratio`/`sg`: `K` environment lobes (1..32) and `refine` rounds
+//! of coordinate descent on the greedy environment fit (6; 0 = greedy only).
 //!
 //! Thin shells (§5): triangles of meshes marked thin are rasterized into the patch grid
 //! (shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
@@ -51,6 +55,11 @@ pub enum Diffuse {
     /// irradiance map of technique `none`) times the lobes' visibility ratio, like the paper's Eq. 9
     /// for specular. Unoccluded points equal `none` exactly.
     Ratio,
+    /// ρ/π (E(n) − Σ_occluded L̄_p C_p): one P × P grid over the hemisphere above n; the occluded
+    /// patches' light is read from the prefiltered environment (filter matched to the patch width)
+    /// times each patch's exact cosine-weighted solid angle. No SG represents the lighting or the
+    /// cosine; ISG's patches, BVH traversal and self-shadowing rules decide what is occluded.
+    Map,
 }
 
 /// The technique's parameters (see the module docs for their option names).
@@ -70,11 +79,11 @@ impl Default for IsgOptions {
     fn default() -> Self {
         Self {
             k: 10,
-            side: 16,
+            side: 32,
             epsilon: 0.01,
             node_threshold: 1.0,
             evaluator: Evaluator::Table,
-            diffuse: Diffuse::Ratio,
+            diffuse: Diffuse::Map,
             refine: REFINE_ROUNDS,
         }
     }
@@ -128,7 +137,8 @@ impl IsgOptions {
                     o.diffuse = match v.as_str() {
                         "sg" => Diffuse::Sg,
                         "ratio" => Diffuse::Ratio,
-                        _ => return Err(bad(k, v, "use ratio or sg")),
+                        "map" => Diffuse::Map,
+                        _ => return Err(bad(k, v, "use map, ratio or sg")),
                     }
                 }
                 _ => {
@@ -207,7 +217,11 @@ impl Technique for Isg {
 
     fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
         self.release(gpu);
-        let (fitted, _) = fit_environment(&scene.environment_cpu, self.options.k, self.options.refine);
+        // `diffuse=map` reads the prefiltered environment itself: no SG fit.
+        let fitted = match self.options.diffuse {
+            Diffuse::Map => Vec::new(),
+            _ => fit_environment(&scene.environment_cpu, self.options.k, self.options.refine).0,
+        };
         let lobes: Vec<GpuSgLobe> = fitted
             .iter()
             .map(|l| GpuSgLobe {
@@ -220,7 +234,7 @@ impl Technique for Isg {
             ints: [
                 lobes.len() as u32,
                 o.side as u32,
-                (o.evaluator == Evaluator::Paper) as u32 | ((o.diffuse == Diffuse::Ratio) as u32) << 1,
+                (o.evaluator == Evaluator::Paper) as u32 | diffuse_code(o.diffuse) << 1,
                 scene.sphere_count,
             ],
             floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
@@ -308,8 +322,21 @@ pub fn fit_environment(env: &engine_math::envmap::LatLongMap, k: usize, refine: 
 /// The shared gather's node-size threshold (radians): `threshold` patch widths of the finest grid a
 /// diffuse product lobe can have. |λ_k a_k + λ_cos n| ≤ λ_k + λ_cos, and the grid narrows as λ grows.
 pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
+    if o.diffuse == Diffuse::Map {
+        // One grid over the hemisphere: patches π/P wide.
+        return o.node_threshold * std::f64::consts::PI / o.side.clamp(1, 32) as f64;
+    }
     let sharpest = lobes.iter().map(|l| l.lambda).fold(0.0, f64::max) + COSINE_SG_LAMBDA;
     o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
+}
+
+/// The shader's diffuse mode code (bits 1–2 of `IsgParams.ints.z`).
+fn diffuse_code(d: Diffuse) -> u32 {
+    match d {
+        Diffuse::Sg => 0,
+        Diffuse::Ratio => 1,
+        Diffuse::Map => 2,
+    }
 }
 
 /// A storage buffer may not be empty: K ≥ 1 always, but keep one zero lobe if a fit returned none.
@@ -505,6 +532,43 @@ pub mod cpu {
         (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
     }
 
+    /// Diffuse mode `map`: the occluded patches of the P × P grid over the hemisphere above n, each as
+    /// (centre direction, cosine-weighted solid angle ∫_patch (n·ω) dω). The shader subtracts
+    /// Σ L̄(centre) · weight from E(n), L̄ the environment prefiltered to the patch width.
+    pub fn map_occluded_patches(p: DVec3, n: DVec3, o: &IsgOptions, spheres: &[Sphere]) -> Vec<(DVec3, f64)> {
+        let g = grid(n, 0.0, o);
+        let mut mask = vec![vec![false; g.side]; g.side];
+        let cone = Cone::new(p, n, g.cone);
+        for s in spheres {
+            if !cone_intersects_sphere(&cone, s) {
+                continue;
+            }
+            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
+            if b.radius <= 0.0 {
+                continue;
+            }
+            let d = b.center - p;
+            let dist = d.length();
+            if dist <= 0.0 {
+                continue;
+            }
+            mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
+        }
+        let mut out = Vec::new();
+        for (i, row) in mask.iter().enumerate() {
+            let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
+            let sin2 = 0.5 * ((t1 - t1.sin() * t1.cos()) - (t0 - t0.sin() * t0.cos()));
+            let th = 0.5 * (t0 + t1);
+            for (j, _) in row.iter().enumerate().filter(|(_, &m)| m) {
+                let p0 = g.lo + j as f64 * g.delta;
+                let ph = p0 + 0.5 * g.delta;
+                let dir = g.x * (th.sin() * ph.cos()) + g.y * th.cos() + g.z * (th.sin() * ph.sin());
+                out.push((dir, sin2 * (p0.cos() - (p0 + g.delta).cos())));
+            }
+        }
+        out
+    }
+
     /// Visible integral of the SG (axis, λ) with amplitude exp(log_mu): μ (F(λ) − H(λ) · occluded).
     fn visible_integral(log_mu: f64, lambda: f64, occluded: f64) -> f64 {
         let full = 2.0 * PI * sphere_unit(lambda);
@@ -661,6 +725,32 @@ mod tests {
             let rel = (occ - exact).abs() / exact;
             assert!(rel < 0.05, "λ {lambda}: grid {occ} vs quadrature {exact} ({rel})");
         }
+    }
+
+    /// Diffuse mode `map`: the patch weights tile the hemisphere's cosine integral (π) exactly, and a
+    /// sphere's occluded patches hold its cap's cosine-weighted solid angle π h r²/d³ up to the grid.
+    #[test]
+    fn map_patches_weigh_the_cosine() {
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        for side in [1, 7, 16, 32] {
+            let o = IsgOptions { side, diffuse: Diffuse::Map, ..IsgOptions::default() };
+            // A sphere covering the whole hemisphere (receiver inside, centre in front).
+            let all = map_occluded_patches(p, n, &o, &[Sphere::new(DVec3::new(0.0, 0.5, 0.0), 1.0)]);
+            assert_eq!(all.len(), side * side);
+            let sum: f64 = all.iter().map(|(_, w)| w).sum();
+            assert!((sum - PI).abs() < 1e-12, "P = {side}: Σ weights {sum}");
+            assert!(all.iter().all(|(d, w)| d.dot(n) > 0.0 && *w > 0.0 && (d.length() - 1.0).abs() < 1e-12));
+        }
+        let o = IsgOptions { side: 32, diffuse: Diffuse::Map, ..IsgOptions::default() };
+        for (c, r) in [(DVec3::new(0.0, 2.0, 0.0), 0.8), (DVec3::new(1.0, 1.5, 0.3), 0.6)] {
+            let got: f64 = map_occluded_patches(p, n, &o, &[Sphere::new(c, r)]).iter().map(|(_, w)| w).sum();
+            let d = c.length();
+            let want = PI * c.y * r * r / (d * d * d);
+            eprintln!("sphere {c:?} r {r}: {got} vs {want} ({:.2} %)", 100.0 * (got - want) / want);
+            assert!((got - want).abs() < 0.08 * want, "sphere {c:?} r {r}: {got} vs {want}");
+        }
+        assert!(map_occluded_patches(p, n, &o, &[]).is_empty());
+        assert!(map_occluded_patches(p, n, &o, &[Sphere::new(DVec3::new(0.0, -2.0, 0.0), 1.0)]).is_empty());
     }
 
     /// Hard cases of the per-lobe occlusion: finite, in [0, F/H] (the whole lobe), and ordered.

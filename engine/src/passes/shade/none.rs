@@ -5,10 +5,10 @@
 use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
 use crate::gpu::{Binding, Gpu, Image, ImageDesc, ImageFormat, Recorder, Result};
 use crate::renderer::GpuScene;
-use engine_math::prefilter::{irradiance_map, sg_prefiltered_map, PREFILTER_LEVELS};
+use engine_math::prefilter::{sg_prefiltered_map, IrradianceGrid, PREFILTER_LEVELS};
 
-/// Size of the irradiance map and of each prefiltered level.
-const IRRADIANCE_SIZE: (usize, usize) = (64, 32);
+/// Size of the irradiance grid (columns, rows including both poles) and of each prefiltered level.
+const IRRADIANCE_SIZE: (usize, usize) = (64, 33);
 const PREFILTER_SIZE: (usize, usize) = (256, 128);
 
 pub struct NoShadows {
@@ -22,9 +22,10 @@ impl NoShadows {
     }
 }
 
-/// The irradiance map E(n) (exact clamped-cosine convolution of the environment), RGBA32F.
+/// The irradiance grid E(n) (exact clamped-cosine sum over the environment, rows on both poles:
+/// [`IrradianceGrid`]), RGBA32F.
 pub(crate) fn irradiance_image(gpu: &Gpu, name: &str, env: &engine_math::envmap::LatLongMap) -> Result<Image> {
-    let irr = irradiance_map(env, IRRADIANCE_SIZE.0, IRRADIANCE_SIZE.1);
+    let irr = IrradianceGrid::compute(env, IRRADIANCE_SIZE.0, IRRADIANCE_SIZE.1);
     gpu.upload_image(
         name,
         ImageDesc::texture(IRRADIANCE_SIZE.0 as u32, IRRADIANCE_SIZE.1 as u32, ImageFormat::Rgba32f),
