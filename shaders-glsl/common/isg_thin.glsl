@@ -21,13 +21,25 @@
 // The marks are OR-ed into the same row masks as the spheres' caps and the horizon, so spheres and thin
 // triangles combine.
 //
-// The includer defines, before including isg_visibility.glsl with ISG_THIN defined:
+// Without ISG_THIN, no-op stubs of isg_thin_begin, isg_thin_present and isg_thin_mark. With it, the
+// includer defines, before including isg_visibility.glsl:
 //   ISG_THIN_TRIANGLE(i)     ThinTriangle number i (thin.glsl);
 //   ISG_THIN_CLUSTER(i)      ThinCluster number i;
 //   ISG_THIN_CLUSTER_COUNT   the number of clusters (cluster 0 with no triangles: no thin meshes).
 // isg_visibility.glsl includes this file after IsgGrid and isg_bit_range.
 #ifndef ISG_THIN_GLSL
 #define ISG_THIN_GLSL
+
+#ifndef ISG_THIN
+// No thin shells: the hooks compile to nothing.
+void isg_thin_begin(vec3 p, vec3 n) {}
+bool isg_thin_present() {
+    return false;
+}
+bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
+    return false;
+}
+#else
 
 #include "thin.glsl"
 
@@ -201,4 +213,5 @@ bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
     return marked;
 }
 
+#endif // ISG_THIN
 #endif // ISG_THIN_GLSL

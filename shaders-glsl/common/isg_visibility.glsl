@@ -157,9 +157,7 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
     return max(sum, 0.0);
 }
 
-#ifdef ISG_THIN
-#include "isg_thin.glsl"
-#endif
+#include "isg_thin.glsl"  // thin shells under ISG_THIN, no-op stubs otherwise
 
 // The blockers seen from one receiver, gathered once and shared by all lobes of the point: each as
 // its cap of directions (unit centre direction, half-angle), after the self-shadowing rule.

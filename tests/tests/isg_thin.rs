@@ -73,9 +73,11 @@ fn thin_triangles(scene: &Scene) -> Vec<[DVec3; 3]> {
 
 // A flat square sheet (half-size 0.4, 8 × 8 quads) at height 0.6 over a Lambertian plane under a
 // constant environment L: a plane point shades to ρL (1 − F), F the parallel-rectangle form factor
-// (exact for a point whose whole sheet is above its horizon: always here). The error comes from the
-// cosine SG (the lobes' ratio weights the sheet's directions by the SG shape instead of the exact
-// cosine) and the 16 × 16 patch grid; thresholds: measured with margin. Receivers on the sheet's top
+// (exact for a point whose whole sheet is above its horizon: always here). Default `isg`
+// (`diffuse=map`, 32 × 32 patches over the hemisphere, each weighted by its exact cosine-weighted
+// solid angle): the error is the patch grid's alone (a patch counts whole when its centre is behind
+// the sheet). Measured 0.55 % relative RMSE, 2.8 % of ρL at most (the SG `ratio` mode at 16 × 16 was
+// 1.3 % and 5.5 %); bounds with margin. Receivers on the sheet's top
 // see no blocker (its own and coplanar triangles are skipped): exactly ρ_sheet L, per pixel and per
 // vertex.
 #[test]
@@ -122,16 +124,16 @@ fn sheet_over_plane_matches_the_form_factor() {
         100.0 * worst
     );
     assert!(shadowed > 50 && top > 20, "only {shadowed} shadowed / {top} sheet pixels");
-    assert!(rmse < 0.03, "relative RMSE {rmse}");
-    assert!(worst < 0.10, "max error {worst} of ρL");
+    assert!(rmse < 0.012, "relative RMSE {rmse}");
+    assert!(worst < 0.05, "max error {worst} of ρL");
 }
 
-// The GPU pass against the f64 twin (cpu::shade_diffuse_and_ratio_with_thin) at G-buffer receivers on
-// the plane and on a flat sheet (receivers on the thin mesh itself, with coplanar neighbours), with a
-// sphere under the sheet (spheres and triangles combine). As for spheres, f32 differences in the
-// patch-centre sign tests can flip a patch on a triangle's edge (two triangles share every edge of the
-// sheet, so an edge through a patch centre is where f32 and f64 disagree): bounds on the 95th
-// percentile (2e-3) and the maximum (10 %: measured 5.8 %, one patch of a sharp lobe).
+// The GPU pass in the paper's SG mode (`diffuse=sg`, 16 × 16 patches per lobe) against the f64 twin
+// (cpu::shade_diffuse_and_ratio_with_thin) at G-buffer receivers on the plane and on a flat sheet
+// (receivers on the thin mesh itself, with coplanar neighbours), with a sphere under the sheet (spheres
+// and triangles combine). As for spheres, f32 differences can flip a patch whose centre lies on a
+// triangle's edge (the GPU solves each edge's sign test per row in closed form, the twin tests every
+// centre): bounds on the 95th percentile (2e-3) and the maximum (3 %; measured 6e-4 flat, 5e-3 curved).
 #[test]
 fn gpu_matches_the_f64_twin_with_thin_triangles() {
     twin_case(false);
@@ -146,11 +148,11 @@ fn gpu_matches_the_f64_twin_on_a_curved_sheet() {
     twin_case(true);
 }
 
-fn twin_case(droop: bool) {
-    let gpu = engine_tests::gpu();
-    let sky = demos::sphere_scene(2).environment;
+/// The twin tests' scene: a 10 × 10-quad sheet (half-size 0.5) at height 0.7 over the plane, drooped
+/// (curved) or flat, with a sphere of radius 0.2 under it (spheres and triangles combine).
+fn sheet_and_sphere(env: LatLongMap, droop: bool) -> (Scene, Vec<Sphere>) {
     let (c, r) = (Vec3::new(0.35, 0.25, 0.1), 0.2f32);
-    let mut scene = demos::sheet_over_plane(sky.clone(), 0.7, 0.5, 0.7, 10);
+    let mut scene = demos::sheet_over_plane(env, 0.7, 0.5, 0.7, 10);
     // Droop the sheet (curved: its receivers see their neighbours near the horizon).
     for p in scene.meshes[1].positions.iter_mut().filter(|_| droop) {
         p.y = -0.15 * (1.0 - 4.0 * p.x * p.x) * (1.0 - 4.0 * p.z * p.z) + 0.1 * p.x;
@@ -164,6 +166,13 @@ fn twin_case(droop: bool) {
         material: 2,
     });
     scene.blockers.spheres = vec![None, None, Some(vec![Sphere::new(DVec3::ZERO, 1.0)])];
+    (scene, vec![Sphere::new(c.as_dvec3(), r as f64)])
+}
+
+fn twin_case(droop: bool) {
+    let gpu = engine_tests::gpu();
+    let sky = demos::sphere_scene(2).environment;
+    let (scene, spheres) = sheet_and_sphere(sky.clone(), droop);
     let thin = thin_triangles(&scene);
     let lut = IsgLut::generate_default();
     let (fitted, _) = engine::passes::shade::isg::fit_environment(&sky, 10, engine::passes::shade::isg::REFINE_ROUNDS);
@@ -177,11 +186,10 @@ fn twin_case(droop: bool) {
             l
         })
         .collect();
-    let spheres = [Sphere::new(c.as_dvec3(), r as f64)];
-    let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("isg:diffuse=sg,threshold=0"));
+    let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("isg:diffuse=sg,threshold=0,patches=16"));
     gpu.shutdown().expect("clean teardown");
     assert_finite(&hdr, "isg");
-    let o = IsgOptions { diffuse: Diffuse::Sg, node_threshold: 0.0, ..IsgOptions::default() };
+    let o = IsgOptions { diffuse: Diffuse::Sg, node_threshold: 0.0, side: 16, ..IsgOptions::default() };
     let mut errs = Vec::new();
     let mut on_sheet = 0;
     for (i, px) in g.iter().enumerate().step_by(5) {
@@ -215,7 +223,50 @@ fn twin_case(droop: bool) {
         errs.len()
     );
     assert!(errs.len() > 600 && on_sheet > 20, "too few receivers");
-    assert!(p95 < 2e-3 && max < 0.10, "GPU vs twin relative error p95 {p95}, max {max}");
+    assert!(p95 < 2e-3 && max < 0.03, "GPU vs twin relative error p95 {p95}, max {max}");
+}
+
+// `diffuse=map` with thin triangles against its f64 twin (cpu::map_occluded_patches_with_thin): under
+// a constant environment L every prefiltered lookup is L, so a GPU pixel must be the unshadowed `none`
+// pixel minus ρ/π L Σ w over the twin's occluded patches of the hemisphere grid. The drooped sheet and
+// the sphere under it; receivers on the plane and on the sheet; every BVH node opened. Bounds as for
+// the sphere-only map twin (patch flips on triangle edges).
+#[test]
+fn map_diffuse_matches_the_f64_twin_with_thin_triangles() {
+    let gpu = engine_tests::gpu();
+    let l = 1.3f64;
+    let (scene, spheres) = sheet_and_sphere(LatLongMap::constant(64, 32, [l as f32; 3]), true);
+    let thin = thin_triangles(&scene);
+    let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
+    for side in [8usize, 32] {
+        let spec = format!("isg:threshold=0,patches={side}");
+        let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings(&spec));
+        assert_finite(&hdr, &spec);
+        let o = IsgOptions { side, node_threshold: 0.0, ..IsgOptions::default() };
+        let (mut errs, mut occluded, mut on_sheet) = (Vec::new(), 0, 0);
+        for (i, px) in g.iter().enumerate().step_by(3) {
+            let Some((p, n, m)) = *px else { continue };
+            if m == 2 {
+                continue;
+            }
+            let albedo = if m == 0 { 0.7 } else { 0.8 };
+            let patches = cpu::map_occluded_patches_with_thin(p, n, &o, &spheres, &thin);
+            let w: f64 = patches.iter().map(|(_, w)| w).sum();
+            occluded += (w > 0.0) as usize;
+            on_sheet += (m == 1 && w > 0.0) as usize;
+            let want = (rgb(&none, i)[1] - albedo / std::f64::consts::PI * l * w).max(0.0);
+            errs.push((rgb(&hdr, i)[1] - want).abs() / want.abs().max(1e-3));
+        }
+        errs.sort_by(f64::total_cmp);
+        let (p95, max) = (errs[errs.len() * 95 / 100], errs[errs.len() - 1]);
+        eprintln!(
+            "{spec}: {} receivers ({occluded} occluded, {on_sheet} of them on the sheet), p95 {p95:.2e}, max {max:.2e}",
+            errs.len()
+        );
+        assert!(occluded > 200 && on_sheet > 20, "too few occluded receivers: {occluded} ({on_sheet} on the sheet)");
+        assert!(p95 < 2e-3 && max < 0.05, "{spec}: GPU vs twin relative error p95 {p95}, max {max}");
+    }
+    gpu.shutdown().expect("clean teardown");
 }
 
 // Hard cases on the GPU: zero-area triangles (bypassing the mesh validation), an edge-on sheet (its
@@ -245,7 +296,7 @@ fn hard_cases_and_the_thin_shells_pass() {
     for per_vertex in [false, true] {
         let s = |t: &str| RenderSettings { per_vertex, ..settings(t) };
         let (none, _) = engine_tests::render(&gpu, &scene, s("none"));
-        for spec in ["isg", "isg:patches=32,evaluator=paper", "isg:patches=1,eps=0.5"] {
+        for spec in ["isg", "isg:diffuse=ratio,patches=16,evaluator=paper", "isg:diffuse=ratio,patches=1,eps=0.5"] {
             let (img, _) = engine_tests::render(&gpu, &scene, s(spec));
             assert_finite(&img, spec);
             let mut darker = 0;
@@ -298,8 +349,8 @@ fn hard_cases_and_the_thin_shells_pass() {
 
 // The demo scene `sheet` renders finite with the sheet's shadow, and ISG against the sphere-proxy
 // reference (bunny spheres + the sheet's own triangles), converged to 2 % relative standard error or
-// 256 samples: the relative RMSE is reported and loosely bounded (the accuracy of ISG itself is measured
-// with `compare`, see the notes).
+// 256 samples: the relative RMSE is reported and loosely bounded (measured 7.5 % with the reference's own
+// noise 7.2 %; the accuracy of ISG itself is measured with `compare`, see the notes).
 #[test]
 fn sheet_scene_against_the_sphere_proxy_reference() {
     let gpu = engine_tests::gpu();
@@ -332,5 +383,5 @@ fn sheet_scene_against_the_sphere_proxy_reference() {
         rmse
     );
     assert!(darker > 40, "no visible sheet shadow ({darker} pixels)");
-    assert!(rmse < 25.0, "isg vs sphere-proxy reference: {rmse} %");
+    assert!(rmse < 15.0, "isg vs sphere-proxy reference: {rmse} %");
 }

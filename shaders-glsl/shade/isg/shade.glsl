@@ -32,6 +32,9 @@ layout(std430, binding = 12) readonly buffer IsgParams {
 #define ISG_LUT_FETCH(i) isg_table[i]
 #define ISG_BVH_NODE(i) bvh_nodes[i]
 // Thin shells (common/isg_thin.glsl): world-space triangles and clusters from the thin_shells pass.
+// Only in the variant the technique builds for scenes with thin meshes (ISG_THIN_SHELLS); otherwise
+// isg_thin.glsl's no-op stubs, so scenes without them pay nothing.
+#ifdef ISG_THIN_SHELLS
 #include "../../common/thin.glsl"
 layout(std430, binding = 14) readonly buffer ThinTriangles { ThinTriangle thin_triangles[]; };
 layout(std430, binding = 15) readonly buffer ThinClusters { ThinCluster thin_clusters[]; };
@@ -39,6 +42,7 @@ layout(std430, binding = 15) readonly buffer ThinClusters { ThinCluster thin_clu
 #define ISG_THIN_TRIANGLE(i) thin_triangles[i]
 #define ISG_THIN_CLUSTER(i) thin_clusters[i]
 #define ISG_THIN_CLUSTER_COUNT uint(thin_clusters.length())
+#endif
 #include "../../common/isg_visibility.glsl"
 
 // (1 − e^{−2λ})/λ · 2π: the sphere integral of a unit-amplitude SG.
@@ -51,11 +55,12 @@ float isg_full_integral(float lambda) {
 // matched to the patch) times its exact cosine-weighted solid angle.
 vec3 isg_map_irradiance(vec3 p, vec3 n, IsgSettings st, uint spheres) {
     vec3 irr = irradiance_lookup(irradiance_map, n);
-    if (spheres == 0u) return irr;
+    if (spheres == 0u && !isg_thin_present()) return irr;
     IsgGrid g = isg_grid(n, 0.0, st);
     uint mask[ISG_MAX_SIDE];
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
-    isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
+    if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
+    isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
     // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
     float lambda_f = 12.0 / (g.delta * g.delta);
     vec3 occluded = vec3(0.0);

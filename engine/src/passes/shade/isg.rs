@@ -22,8 +22,9 @@
 //! `sg` (the paper's Eq. 5), and for `ratio`/`sg`: `K` environment lobes (1..32) and `refine` rounds
 //! of coordinate descent on the greedy environment fit (6; 0 = greedy only).
 //!
-//! Thin shells (§5): triangles of meshes marked thin are rasterized into the patch grid
-//! (shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
+//! Thin shells (§5): triangles of meshes marked thin are rasterized into the patch grids (the
+//! hemisphere grid of `diffuse=map`, each lobe's grid otherwise, the specular lobe's always;
+//! shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
 //! Not modelled: anisotropic BRDF lobes. [`cpu`] is the f64 twin of the whole per-point integral.
 
 use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
@@ -190,13 +191,16 @@ struct Prepared {
 
 pub struct Isg {
     pipelines: TargetPipelines,
+    /// The variant with thin shells (`ISG_THIN_SHELLS`), built at the first prepare of a scene with a
+    /// thin mesh: scenes without one run shaders with no thin-shell code at all.
+    thin_pipelines: Option<TargetPipelines>,
     pub options: IsgOptions,
     prepared: Option<Prepared>,
 }
 
 impl Isg {
     pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
-        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, options, prepared: None })
+        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, thin_pipelines: None, options, prepared: None })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -217,6 +221,9 @@ impl Technique for Isg {
 
     fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
         self.release(gpu);
+        if scene.thin_triangle_count > 0 && self.thin_pipelines.is_none() {
+            self.thin_pipelines = Some(TargetPipelines::with_defines(gpu, "isg", &[("ISG_THIN_SHELLS", "1")])?);
+        }
         // `diffuse=map` reads the prefiltered environment itself: no SG fit.
         let fitted = match self.options.diffuse {
             Diffuse::Map => Vec::new(),
@@ -282,7 +289,14 @@ impl Technique for Isg {
             return Err(GpuError::Other("technique 'isg' recorded before prepare()".into()));
         };
         let lut = p.tables.get(MathTable::IsgLut).ok_or_else(|| GpuError::Other("isg: table not loaded".into()))?;
-        self.pipelines.record(
+        let pipelines = match &self.thin_pipelines {
+            Some(t) if inputs.scene.thin_triangle_count > 0 => t,
+            _ if inputs.scene.thin_triangle_count > 0 => {
+                return Err(GpuError::Other("isg: a scene with thin meshes recorded before prepare()".into()))
+            }
+            _ => &self.pipelines,
+        };
+        pipelines.record(
             rec,
             "isg",
             inputs,
@@ -303,6 +317,9 @@ impl Technique for Isg {
     fn destroy(mut self: Box<Self>, gpu: &Gpu) {
         self.release(gpu);
         self.pipelines.destroy(gpu);
+        if let Some(t) = self.thin_pipelines.take() {
+            t.destroy(gpu);
+        }
     }
 }
 
@@ -536,6 +553,18 @@ pub mod cpu {
     /// (centre direction, cosine-weighted solid angle ∫_patch (n·ω) dω). The shader subtracts
     /// Σ L̄(centre) · weight from E(n), L̄ the environment prefiltered to the patch width.
     pub fn map_occluded_patches(p: DVec3, n: DVec3, o: &IsgOptions, spheres: &[Sphere]) -> Vec<(DVec3, f64)> {
+        map_occluded_patches_with_thin(p, n, o, spheres, &[])
+    }
+
+    /// [`map_occluded_patches`] with thin-shell triangles (world space) among the blockers
+    /// ([`super::thin`]), marked into the same hemisphere grid.
+    pub fn map_occluded_patches_with_thin(
+        p: DVec3,
+        n: DVec3,
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+    ) -> Vec<(DVec3, f64)> {
         let g = grid(n, 0.0, o);
         let mut mask = vec![vec![false; g.side]; g.side];
         let cone = Cone::new(p, n, g.cone);
@@ -554,6 +583,7 @@ pub mod cpu {
             }
             mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
         }
+        super::thin::mark_thin(&mut mask, &g, p, n, thin);
         let mut out = Vec::new();
         for (i, row) in mask.iter().enumerate() {
             let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
