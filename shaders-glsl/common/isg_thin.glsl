@@ -8,9 +8,8 @@
 //    covers patches the horizon already occludes);
 // 2. each triangle passes the self-shadowing rule of thin.glsl (plane not within ε of p, nonzero area)
 //    and is skipped when wholly below the tangent plane;
-// 3. it is projected onto the unit sphere around p and rasterized tile by tile: the tile is the
-//    cluster's bounding cap (padded by ISG_THIN_PAD; rows and, per row, the columns of its patch
-//    centres, exactly as a sphere's cap is marked), which bounds the angular box of each of its
+// 3. it is projected onto the unit sphere around p and rasterized tile by tile: the tile is the rows
+//    of the cluster's bounding cap (padded by ISG_THIN_PAD), which bound the rows of each of its
 //    triangles; the candidate patches are the tile's not yet occluded ones (a cluster with none is
 //    skipped whole), and a candidate is occluded when its centre direction lies inside the spherical
 //    triangle: the three sign tests dot(e_k, ω) ≥ 0 with e_k the edge-plane normals a × b, b × c,
@@ -135,20 +134,24 @@ bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
         if (cl.range.y == 0u) continue;
         if (dot(cl.bound.xyz - p, n) < -cl.bound.w) continue;
         if (!bvh_cone_hits(p, g.z, g.cone, cl.bound)) continue;
-        // Candidate patches: centres in the cluster's bounding cap (padded), not yet occluded.
-        for (int i = 0; i < g.side; ++i) cand[i] = 0u;
+        // Candidate patches: the rows of the cluster's bounding cap (padded), not yet occluded (the
+        // columns are left to each triangle's own spans: a cap's columns cost an acos per row, about
+        // as much as the triangles' spans themselves). A cluster with none is skipped whole.
         vec3 d = cl.bound.xyz - p;
         float dist = length(d);
-        float psi = sphere_subtended_half_angle(p, cl.bound);
-        if (psi >= ISG_PI || !(dist > 0.0)) {
-            for (int i = 0; i < g.side; ++i) cand[i] = full;
-        } else {
-            isg_mark_cap(cand, g, d / dist, psi + ISG_THIN_PAD);
+        float psi = sphere_subtended_half_angle(p, cl.bound) + ISG_THIN_PAD;
+        int i_lo = 0;
+        int i_hi = g.side - 1;
+        if (psi < ISG_PI && dist > 0.0) {
+            vec3 u = d / dist;
+            float theta_c = atan(length(vec2(dot(u, g.x), dot(u, g.z))), dot(u, g.y));
+            i_lo = int(clamp(ceil((theta_c - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
+            i_hi = int(clamp(floor((theta_c + psi - g.lo) / g.delta - 0.5), -1.0, last));
         }
         int row_lo = g.side;
         int row_hi = -1;
-        for (int i = 0; i < g.side; ++i) {
-            cand[i] &= ~mask[i];
+        for (int i = i_lo; i <= i_hi; ++i) {
+            cand[i] = full & ~mask[i];
             if (cand[i] != 0u) {
                 row_lo = min(row_lo, i);
                 row_hi = i;

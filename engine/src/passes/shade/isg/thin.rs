@@ -5,8 +5,9 @@
 //! A triangle (world space) seen from receiver p is projected onto the unit sphere around p and
 //! rasterized into the lobe's patch grid: a patch is occluded when its centre direction ω lies in the
 //! spherical triangle, i.e. the ray p + tω hits the triangle for some t > 0 (three sign tests against
-//! the edge planes through p). The GPU scans only the triangle's angular bounding box (a padded
-//! bounding cap); this twin does the same, so both test the same candidate patches.
+//! the edge planes through p). Both scan only the rows of the triangle's padded bounding cap; this twin
+//! tests every candidate centre's signs, the GPU solves each edge's sign test per row in closed form
+//! (an arc of columns), which agrees up to centres within f32 rounding of an edge.
 //!
 //! The clusters and their cone culling on the GPU are conservative (a culled cluster has no direction
 //! in the grid), so the twin takes the triangles as a flat list.
