@@ -94,19 +94,7 @@ fn run() -> Result<()> {
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(count) = args.spheres {
-        let settings = engine::blockers::fit::FitSettings { count, ..Default::default() };
-        let dir = args.out.join("spheres");
-        std::fs::create_dir_all(&dir)?;
-        let mesh = scene.meshes.first().context("the scene has no mesh")?;
-        let cache = dir.join(format!("{}-{count}.spheres.json", args.scene));
-        eprintln!("fitting {count} spheres to mesh 0 (cached in {})...", cache.display());
-        let t0 = std::time::Instant::now();
-        let spheres = engine::scene::blockers::fitted_spheres(mesh, &settings, &cache)?;
-        eprintln!("{} spheres in {:.1} s", spheres.len(), t0.elapsed().as_secs_f64());
-        match scene.blockers.spheres.first_mut() {
-            Some(slot) => *slot = Some(spheres),
-            None => scene.blockers.spheres.push(Some(spheres)),
-        }
+        measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
     }
     let gpu = Gpu::new(&GpuDesc::default())?;
     let result = measure(&gpu, &scene, &args, &visibilities);
