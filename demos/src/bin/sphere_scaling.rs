@@ -53,7 +53,13 @@ fn run() -> Result<()> {
     let result = measure_all(&gpu, &args);
     gpu.shutdown()?;
     let (device, rows) = result?;
-    println!("scene {} {}x{}{}, {device}", args.scene, args.width, args.height, if args.per_vertex { " per vertex" } else { "" });
+    println!(
+        "scene {} {}x{}{}, {device}",
+        args.scene,
+        args.width,
+        args.height,
+        if args.per_vertex { " per vertex" } else { "" }
+    );
     println!("| spheres | {} |", args.techniques.join(" | "));
     println!("|---|{}", "---|".repeat(args.techniques.len()));
     for (count, ms) in &rows {
