@@ -37,6 +37,10 @@ struct Args {
     /// Override k_s of material 0.
     #[arg(long)]
     ks: Option<f32>,
+    /// Specular BRDF of material 0 (applied after --gloss/--ks), as `demo --brdf`:
+    /// `cook-torrance:roughness=0.1,ks=0.5`, `ashikhmin-shirley:nu=1000,nv=100,ks=0.5`, ….
+    #[arg(long, value_name = "SPEC")]
+    brdf: Option<String>,
     /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, or `none` (only
     /// the techniques' times).
     #[arg(long, default_value = "both")]
@@ -77,6 +81,9 @@ fn run() -> Result<()> {
         if let Some(k) = args.ks {
             m.specular = glam::Vec3::splat(k);
         }
+    }
+    if let Some(spec) = &args.brdf {
+        demos::apply_brdf(&mut scene, spec)?;
     }
     let visibilities: Vec<(&str, Visibility)> = match args.visibility.as_str() {
         "spheres" => vec![("spheres", Visibility::Spheres)],
@@ -127,14 +134,15 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         measured.push(m);
     }
     println!(
-        "scene {}{} {}x{}{}, gloss {:?}, ks {:?}",
+        "scene {}{} {}x{}{}, gloss {:?}, ks {:?}, brdf {}",
         args.scene,
         args.spheres.map(|n| format!(" ({n} spheres)")).unwrap_or_default(),
         w,
         h,
         if args.per_vertex { " per vertex" } else { "" },
         args.gloss,
-        args.ks
+        args.ks,
+        args.brdf.as_deref().unwrap_or("(scene's)")
     );
     if visibilities.is_empty() {
         println!("| technique | shade ms |");

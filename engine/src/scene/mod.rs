@@ -230,3 +230,35 @@ impl Scene {
         (lo, hi)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn brdf_specs_parse_and_name_bad_keys() {
+        let mut m = Material::glossy(Vec3::splat(0.5), 0.15, 200.0);
+        m.apply_brdf_spec("blinn-phong:s=1000,ks=0.5").unwrap();
+        assert_eq!((m.brdf, m.shininess, m.specular), (Brdf::BlinnPhong, 1000.0, Vec3::splat(0.5)));
+        m.apply_brdf_spec("cook-torrance:roughness=0.1,ndf=ggx").unwrap();
+        assert_eq!(m.brdf, Brdf::CookTorrance { ndf: Ndf::Ggx, roughness: 0.1 });
+        m.apply_brdf_spec("ashikhmin-shirley:nu=1000,nv=100,ks=0.25,tangent=1/0/0").unwrap();
+        assert_eq!(m.brdf, Brdf::AshikhminShirley { nu: 1000.0, nv: 100.0 });
+        assert_eq!((m.specular, m.tangent), (Vec3::splat(0.25), Vec3::X));
+        for (bad, key) in [
+            ("cook-torrance:roughness=2", "roughness"),
+            ("cook-torrance:s=10", "s"),
+            ("ashikhmin-shirley:nu=x", "nu"),
+            ("ashikhmin-shirley:tangent=0/0/0", "tangent"),
+            ("blinn-phong:ks=-1", "ks"),
+            ("cook-torrance:ndf=phong", "ndf"),
+            ("phong", "phong"),
+            ("blinn-phong:s", "s"),
+        ] {
+            let before = m;
+            let e = m.apply_brdf_spec(bad).unwrap_err();
+            assert!(e.contains(&format!("'{key}'")), "{bad}: {e}");
+            assert_eq!(m, before, "a failed spec leaves the material unchanged");
+        }
+    }
+}
