@@ -60,6 +60,9 @@ pub struct SceneSpec {
     /// k_s of material 0.
     #[serde(default)]
     pub ks: Option<f32>,
+    /// Specular BRDF of material 0 as `demo --brdf` takes it (applied after gloss/ks).
+    #[serde(default)]
+    pub brdf: Option<String>,
     /// Shading rates for this scene instead of the sweep's.
     #[serde(default)]
     pub shading: Option<Vec<String>>,
@@ -173,6 +176,9 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
             if let Some(k) = spec.ks {
                 m.specular = glam::Vec3::splat(k);
             }
+        }
+        if let Some(b) = &spec.brdf {
+            crate::apply_brdf(&mut scene, b)?;
         }
         let has_spheres = scene.blockers.spheres.iter().any(Option::is_some);
         let mut measured: Vec<(String, Measured)> = Vec::new();
