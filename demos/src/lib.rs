@@ -22,7 +22,7 @@ pub fn assets_dir() -> PathBuf {
 }
 
 /// Scenes `--scene` accepts.
-pub const SCENES: &[&str] = &["bunny", "furnace", "sphere", "arm"];
+pub const SCENES: &[&str] = &["bunny", "furnace", "sphere", "arm", "sheet"];
 
 /// A square ground plane of half-size `half` at y = 0, tessellated `n` × `n` (per-vertex shading
 /// needs vertices), normal +Y.
@@ -162,6 +162,7 @@ pub fn build_scene(name: &str, env: Option<&Path>) -> anyhow::Result<Scene> {
         "furnace" => Ok(furnace_scene(0.5, 1.0)),
         "sphere" => Ok(sphere_scene(64)),
         "arm" => Ok(arm_scene(std::f32::consts::FRAC_PI_3)),
+        "sheet" => sheet_scene(env),
         other => anyhow::bail!("unknown scene '{other}' (available: {})", SCENES.join(", ")),
     }
 }
@@ -239,6 +240,7 @@ pub fn arm_scene(angle: f32) -> Scene {
             spheres: vec![Some(arm_spheres(12))],
             skins: vec![Some(skin)],
             bones: arm_bones(angle),
+            thin: Vec::new(),
         },
         camera: Camera { eye: Vec3::new(0.0, 1.5, 3.5), target: Vec3::new(0.0, 0.5, 0.0), fov_y_degrees: 45.0 },
     }
@@ -272,8 +274,64 @@ pub fn sphere_over_plane(env: LatLongMap, albedo: f32, center: Vec3, radius: f32
     }
 }
 
+/// A cloth-like sheet: `n` × `n` quads over [−half, half]² in x and z, at height
+/// `y(u, v) = −sag (1 − u²)(1 − v²) − slope v` with u, v ∈ [−1, 1] the normalized x and z (a gentle drape,
+/// lowest in the middle, tilted down towards +z by `slope`); normals area-weighted from the triangles.
+pub fn sheet_mesh(n: u32, half: f32, sag: f32, slope: f32) -> Mesh {
+    let mut m = ground_plane(half, n);
+    for p in &mut m.positions {
+        let (u, v) = (p.x / half, p.z / half);
+        p.y = -sag * (1.0 - u * u) * (1.0 - v * v) - slope * v;
+    }
+    m.normals = engine::scene::compute_normals(&m.positions, &m.indices);
+    m.name = "sheet".into();
+    m
+}
+
+/// Demo scene `sheet`: the bunny scene with a cloth-like sheet (24 × 24 quads, 1.2 × 1.2, sagging
+/// 0.15 and tilted towards the camera) hanging above the bunny's left half, marked thin (ISG §5: its
+/// triangles are its blockers, no spheres); its soft shadow falls on the bunny and the ground. Meshes
+/// are two-sided, so the sheet's underside, which the camera sees, is shaded with the flipped normal.
+/// (Not the simulated `cloth` scene.)
+pub fn sheet_scene(env: Option<&Path>) -> anyhow::Result<Scene> {
+    let mut scene = bunny_scene(env)?;
+    scene.meshes.push(sheet_mesh(24, 0.6, 0.15, 0.1));
+    scene.materials.push(Material::diffuse(Vec3::new(0.65, 0.18, 0.14)));
+    scene.instances.push(Instance {
+        mesh: 2,
+        transform: Mat4::from_translation(Vec3::new(-0.45, 1.35, 0.1)),
+        material: 2,
+    });
+    scene.blockers.thin = vec![false, false, true];
+    // Higher and further back than the bunny scene's view: the sheet, the bunny under it and the ground around.
+    scene.camera = Camera { eye: Vec3::new(0.9, 1.9, 2.6), target: Vec3::new(-0.2, 0.45, 0.0), fov_y_degrees: 45.0 };
+    Ok(scene)
+}
+
+/// A Lambertian plane (half-size 1.5 at y = 0, albedo `albedo`, material 0) under `env` with a flat
+/// square thin sheet (half-size `half`, `n` × `n` quads, material 1, albedo 0.8) parallel to it at
+/// `height`, centred above the origin: the closed-form scene of the thin-shell tests (for a constant
+/// environment L a plane point shades to ρL (1 − F) with F the parallel-rectangle form factor).
+pub fn sheet_over_plane(env: LatLongMap, albedo: f32, half: f32, height: f32, n: u32) -> Scene {
+    let mut sheet = ground_plane(half, n);
+    sheet.name = "sheet".into();
+    Scene {
+        meshes: vec![ground_plane(1.5, 8), sheet],
+        materials: vec![Material::diffuse(Vec3::splat(albedo)), Material::diffuse(Vec3::splat(0.8))],
+        instances: vec![
+            Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 },
+            Instance { mesh: 1, transform: Mat4::from_translation(Vec3::new(0.0, height, 0.0)), material: 1 },
+        ],
+        environment: env,
+        environment_intensity: 1.0,
+        lights: Vec::new(),
+        blockers: SceneBlockers { thin: vec![false, true], ..Default::default() },
+        camera: Camera { eye: Vec3::new(0.0, 2.2, 2.6), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },
+    }
+}
+
 /// Motion over time for the demo and the viewer (`--animate`): the bunny turns on its base (a rigid
-/// transform: its blocker spheres follow), the arm bends between 0° and 60° (the bones: skin and
+/// transform: its blocker spheres follow; in `sheet` the sheet stays), the arm bends between 0° and 60° (the bones: skin and
 /// skinned spheres follow). Other scenes are static.
 pub struct Animation {
     kind: AnimationKind,
@@ -292,7 +350,7 @@ impl Animation {
     /// The animation of a demo scene built by [`build_scene`], if it has one.
     pub fn for_scene(name: &str, scene: &Scene) -> Option<Self> {
         match name {
-            "bunny" => {
+            "bunny" | "sheet" => {
                 scene.instances.first().map(|i| Self { kind: AnimationKind::Turntable { index: 0, base: i.transform } })
             }
             "arm" => Some(Self { kind: AnimationKind::ArmBend }),

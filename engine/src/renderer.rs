@@ -1,5 +1,5 @@
-//! One frame: skin → blocker spheres → blocker BVH → (per-vertex shade) → G-buffer → shade or
-//! compose → tonemap, with per-pass
+//! One frame: skin → thin shells → blocker spheres → blocker BVH → (per-vertex shade) → G-buffer →
+//! shade or compose → tonemap, with per-pass
 //! GPU times. Everything is allocated in [`Renderer::new`]; a steady frame allocates no device
 //! memory (checked by a test through the allocator's counters).
 
@@ -13,6 +13,7 @@ use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 use crate::passes::shade::{create_technique, ComposePass, ShadeInputs, ShadeTarget, Technique};
 use crate::passes::skin::SkinPass;
+use crate::passes::thin_shells::{GpuThinCluster, GpuThinTriangle, ThinShellsPass};
 use crate::passes::tonemap::TonemapPass;
 use crate::scene::{Camera, Scene, SphereLight};
 use engine_math::envmap::LatLongMap;
@@ -52,6 +53,16 @@ pub struct GpuScene {
     /// Bone matrices (mat4, host-visible, rewritten by [`Renderer::set_bones`]).
     pub bones: Buffer,
     pub bone_count: u32,
+    /// Thin shells ([`crate::passes::thin_shells`]): per thin triangle its scene vertex indices
+    /// (`uvec4`, built once), its world-space vertices (rewritten every frame), and the clusters
+    /// (triangle ranges built once, bounding spheres rewritten every frame). At least one element
+    /// each: with no thin mesh, cluster 0 holds no triangles.
+    pub thin_indices: Buffer,
+    pub thin_triangles: Buffer,
+    pub thin_clusters: Buffer,
+    /// Number of thin triangles and clusters (0: the thin_shells pass does not run).
+    pub thin_triangle_count: u32,
+    pub thin_cluster_count: u32,
 }
 
 impl GpuScene {
@@ -93,6 +104,11 @@ impl GpuScene {
         let env_bytes: Vec<f32> = env.texels.iter().flat_map(|t| [t[0], t[1], t[2], 1.0]).collect();
         let blockers = crate::passes::blocker_spheres::gather(scene)?;
         let sphere_count = blockers.rest.len() as u32;
+        let thin = crate::passes::thin_shells::gather(scene)?;
+        let thin_triangle_count = thin.indices.len() as u32;
+        let thin_cluster_count = thin.clusters.len() as u32;
+        let thin_indices = if thin.indices.is_empty() { vec![[0u32; 4]] } else { thin.indices };
+        let thin_clusters = if thin.clusters.is_empty() { vec![GpuThinCluster::default()] } else { thin.clusters };
         let bone_count = blockers.bones.len() as u32;
         let n = vertices.len() as u64;
         let mut made: Vec<Buffer> = Vec::new();
@@ -114,6 +130,10 @@ impl GpuScene {
             step(gpu.upload_buffer("blocker-rest", BufferDesc::gpu_only(64), &blockers.rest))?;
             step(gpu.upload_buffer("scene-vertex-skins", BufferDesc::gpu_only(0), &blockers.vertex_skins))?;
             step(gpu.create_buffer("scene-bones", BufferDesc::upload(64 * bone_count.max(1) as u64)))?;
+            step(gpu.upload_buffer("thin-indices", BufferDesc::gpu_only(0), &thin_indices))?;
+            let tri_bytes = std::mem::size_of::<GpuThinTriangle>() as u64 * thin_triangle_count.max(1) as u64;
+            step(gpu.create_buffer("thin-triangles", BufferDesc::gpu_only(tri_bytes)))?;
+            step(gpu.upload_buffer("thin-clusters", BufferDesc::gpu_only(0), &thin_clusters))?;
             Ok(())
         })();
         let environment = r.and_then(|_| {
@@ -154,6 +174,11 @@ impl GpuScene {
             vertex_skins: next()?,
             bones: next()?,
             bone_count,
+            thin_indices: next()?,
+            thin_triangles: next()?,
+            thin_clusters: next()?,
+            thin_triangle_count,
+            thin_cluster_count,
         };
         let written = out.objects.write(&objects).and_then(|_| out.bones.write(&blockers.bones));
         if let Err(e) = written {
@@ -177,6 +202,9 @@ impl GpuScene {
             self.blocker_rest,
             self.vertex_skins,
             self.bones,
+            self.thin_indices,
+            self.thin_triangles,
+            self.thin_clusters,
         ] {
             gpu.destroy_buffer(b);
         }
@@ -212,6 +240,7 @@ struct Parts {
     skin: Option<SkinPass>,
     blocker_spheres: Option<BlockerSpheresPass>,
     blocker_bvh: Option<BlockerBvhPass>,
+    thin_shells: Option<ThinShellsPass>,
     gbuffer_pass: Option<GBufferPass>,
     compose: Option<ComposePass>,
     tonemap: Option<TonemapPass>,
@@ -245,6 +274,9 @@ impl Parts {
         if let Some(x) = self.blocker_bvh {
             x.destroy(gpu);
         }
+        if let Some(x) = self.thin_shells {
+            x.destroy(gpu);
+        }
         for i in [self.radiance, self.ldr].into_iter().flatten() {
             gpu.destroy_image(i);
         }
@@ -267,6 +299,7 @@ pub struct Renderer {
     skin: SkinPass,
     blocker_spheres: BlockerSpheresPass,
     blocker_bvh: BlockerBvhPass,
+    thin_shells: ThinShellsPass,
     gbuffer_pass: GBufferPass,
     compose: ComposePass,
     tonemap: TonemapPass,
@@ -294,6 +327,7 @@ impl Renderer {
             p.blocker_spheres = Some(BlockerSpheresPass::new(gpu)?);
             let spheres = p.scene.as_ref().map_or(0, |s| s.sphere_count);
             p.blocker_bvh = Some(BlockerBvhPass::new(gpu, spheres)?);
+            p.thin_shells = Some(ThinShellsPass::new(gpu)?);
             p.gbuffer_pass = Some(GBufferPass::new(gpu)?);
             p.compose = Some(ComposePass::new(gpu)?);
             p.tonemap = Some(TonemapPass::new(gpu)?);
@@ -324,6 +358,7 @@ impl Renderer {
             skin: p.skin.ok_or_else(missing)?,
             blocker_spheres: p.blocker_spheres.ok_or_else(missing)?,
             blocker_bvh: p.blocker_bvh.ok_or_else(missing)?,
+            thin_shells: p.thin_shells.ok_or_else(missing)?,
             gbuffer_pass: p.gbuffer_pass.ok_or_else(missing)?,
             compose: p.compose.ok_or_else(missing)?,
             tonemap: p.tonemap.ok_or_else(missing)?,
@@ -434,6 +469,7 @@ impl Renderer {
             skin,
             blocker_spheres,
             blocker_bvh,
+            thin_shells,
             gbuffer_pass,
             compose,
             tonemap,
@@ -445,6 +481,7 @@ impl Renderer {
         let per_vertex = settings.per_vertex;
         let record = |rec: &mut Recorder| {
             skin.record(rec, scene)?;
+            thin_shells.record(rec, scene)?;
             blocker_spheres.record(rec, scene)?;
             blocker_bvh.record(rec, &scene.spheres, &scene.bvh_nodes, scene.sphere_count)?;
             let inputs = ShadeInputs { scene };
@@ -487,6 +524,7 @@ impl Renderer {
         self.skin.destroy(gpu);
         self.blocker_spheres.destroy(gpu);
         self.blocker_bvh.destroy(gpu);
+        self.thin_shells.destroy(gpu);
         gpu.destroy_image(self.radiance);
         gpu.destroy_image(self.ldr);
         self.gbuffer.destroy(gpu);

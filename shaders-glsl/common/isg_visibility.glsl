@@ -16,7 +16,8 @@
 //
 // The includer defines, before including this file:
 //   ISG_BVH_NODE(i)   an expression giving BvhNode number i (bvh.glsl), e.g. bvh_nodes[i];
-//   ISG_LUT_FETCH(i)  float number i of the ISG table (isg.glsl), for the table evaluator.
+//   ISG_LUT_FETCH(i)  float number i of the ISG table (isg.glsl), for the table evaluator;
+//   optionally ISG_THIN and the macros of isg_thin.glsl: thin-shell triangles join the blockers.
 #ifndef ISG_VISIBILITY_GLSL
 #define ISG_VISIBILITY_GLSL
 
@@ -156,6 +157,8 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
     return max(sum, 0.0);
 }
 
+#include "isg_thin.glsl"  // thin shells under ISG_THIN, no-op stubs otherwise
+
 // The blockers seen from one receiver, gathered once and shared by all lobes of the point: each as
 // its cap of directions (unit centre direction, half-angle), after the self-shadowing rule.
 #ifndef ISG_MAX_BLOCKERS
@@ -224,6 +227,9 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
         isg_mark_cap(mask, g, cap.xyz, cap.w);
         marked = true;
     }
+#ifdef ISG_THIN
+    if (isg_thin_mark(mask, g)) marked = true;  // thin-shell triangles (isg_thin.glsl)
+#endif
     return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
 }
 

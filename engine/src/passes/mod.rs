@@ -6,4 +6,5 @@ pub mod gbuffer;
 pub mod layout;
 pub mod shade;
 pub mod skin;
+pub mod thin_shells;
 pub mod tonemap;

@@ -10,6 +10,10 @@
 //!   the vertices near the sphere, averaged. SHEXP binds by mean value coordinates of the centre w.r.t.
 //!   the rest mesh, then folds them into bone weights; averaging the weights of nearby vertices is the
 //!   same idea with a local kernel instead of MVCs (cheap, and equal for rigidly moving parts).
+//! - Thin shells (ISG §5, cloth): a mesh marked thin ([`SceneBlockers::thin`]) has no sphere set; its own
+//!   triangles are its blockers (every instance's, in world space, following skin and transform). The
+//!   mark is per mesh, like sphere sets: thinness is a property of the geometry, not of where an
+//!   instance puts it, and a mesh's blocker representation is chosen once for all its instances.
 
 use super::Mesh;
 use engine_blockers::file::{load_or_fit, CacheOutcome};
@@ -35,6 +39,9 @@ pub struct SceneBlockers {
     pub skins: Vec<Option<Skin>>,
     /// Bone matrices at the scene's initial pose (the renderer rewrites them per frame).
     pub bones: Vec<Mat4>,
+    /// Thin-shell mark per mesh (index = mesh index; missing: not thin). A thin mesh's triangles are
+    /// its blockers; it must have no sphere set.
+    pub thin: Vec<bool>,
 }
 
 impl SceneBlockers {
@@ -43,6 +50,9 @@ impl SceneBlockers {
     }
     pub fn skin_of(&self, mesh: usize) -> Option<&Skin> {
         self.skins.get(mesh).and_then(|s| s.as_ref())
+    }
+    pub fn is_thin(&self, mesh: usize) -> bool {
+        self.thin.get(mesh).copied().unwrap_or(false)
     }
 }
 

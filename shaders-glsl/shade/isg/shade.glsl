@@ -31,6 +31,18 @@ layout(std430, binding = 12) readonly buffer IsgParams {
 
 #define ISG_LUT_FETCH(i) isg_table[i]
 #define ISG_BVH_NODE(i) bvh_nodes[i]
+// Thin shells (common/isg_thin.glsl): world-space triangles and clusters from the thin_shells pass.
+// Only in the variant the technique builds for scenes with thin meshes (ISG_THIN_SHELLS); otherwise
+// isg_thin.glsl's no-op stubs, so scenes without them pay nothing.
+#ifdef ISG_THIN_SHELLS
+#include "../../common/thin.glsl"
+layout(std430, binding = 14) readonly buffer ThinTriangles { ThinTriangle thin_triangles[]; };
+layout(std430, binding = 15) readonly buffer ThinClusters { ThinCluster thin_clusters[]; };
+#define ISG_THIN
+#define ISG_THIN_TRIANGLE(i) thin_triangles[i]
+#define ISG_THIN_CLUSTER(i) thin_clusters[i]
+#define ISG_THIN_CLUSTER_COUNT uint(thin_clusters.length())
+#endif
 #include "../../common/isg_visibility.glsl"
 #include "specular.glsl"
 
@@ -44,11 +56,12 @@ float isg_full_integral(float lambda) {
 // matched to the patch) times its exact cosine-weighted solid angle.
 vec3 isg_map_irradiance(vec3 p, vec3 n, IsgSettings st, uint spheres) {
     vec3 irr = irradiance_lookup(irradiance_map, n);
-    if (spheres == 0u) return irr;
+    if (spheres == 0u && !isg_thin_present()) return irr;
     IsgGrid g = isg_grid(n, 0.0, st);
     uint mask[ISG_MAX_SIDE];
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
-    isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
+    if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
+    isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
     // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
     float lambda_f = 12.0 / (g.delta * g.delta);
     vec3 occluded = vec3(0.0);
@@ -84,6 +97,7 @@ vec3 shade_point(ShadePoint sp) {
     float cos_lambda = isg_floats.z;
     float cos_mu = isg_floats.w;
     vec3 n = sp.normal;
+    isg_thin_begin(sp.position, n);
 
     // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole below
     // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
@@ -129,7 +143,7 @@ vec3 shade_point(ShadePoint sp) {
     float s = sp.material.specular.w;
     vec3 spec = blinn_phong_prefiltered(prefiltered_env, n, sp.view, ks, s);
     float ratio = 1.0;
-    if (spheres > 0u) {
+    if (spheres > 0u || isg_thin_present()) {
         float ndv = max(abs(dot(n, sp.view)), 1e-6);
         vec3 r = normalize(2.0 * dot(n, sp.view) * n - sp.view);
         vec3 axis;

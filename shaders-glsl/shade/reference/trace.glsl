@@ -41,10 +41,9 @@ float node_entry(vec3 o, vec3 inv_d, uint n, float t_max) {
 }
 
 // Möller–Trumbore; t in (0, t_max) or -1.
-float intersect_tri(vec3 o, vec3 d, uint k, float t_max) {
-    vec3 p0 = tris[k].v0.xyz;
-    vec3 e1 = tris[k].v1.xyz - p0;
-    vec3 e2 = tris[k].v2.xyz - p0;
+float intersect_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2, float t_max) {
+    vec3 e1 = p1 - p0;
+    vec3 e2 = p2 - p0;
     vec3 p = cross(d, e2);
     float det = dot(e1, p);
     if (det == 0.0) return -1.0;
@@ -57,6 +56,10 @@ float intersect_tri(vec3 o, vec3 d, uint k, float t_max) {
     if (v < 0.0 || u + v > 1.0) return -1.0;
     float t = dot(e2, q) * inv;
     return (t > 0.0 && t < t_max) ? t : -1.0;
+}
+
+float intersect_tri(vec3 o, vec3 d, uint k, float t_max) {
+    return intersect_triangle(o, d, tris[k].v0.xyz, tris[k].v1.xyz, tris[k].v2.xyz, t_max);
 }
 
 // Nearest hit distance in (0, t_max), or t_max if none; with `any`, the first hit found.
@@ -147,6 +150,39 @@ float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit
         if (t.x > 0.0) {
             best = t.x;
             if (any_hit) return best;
+        }
+    }
+    return best;
+}
+
+// ---- thin shells: the world-space triangles of meshes marked thin (written every frame by the
+// thin_shells pass) are their own proxy, seen through the same rule as in ISG (thin.glsl: a triangle
+// whose plane passes within ε of the receiver, or of zero area, does not block it) ----
+#include "../../common/thin.glsl"
+layout(std430, binding = 16) readonly buffer ThinTriangles { ThinTriangle thin_triangles[]; };
+layout(std430, binding = 17) readonly buffer ThinClusters { ThinCluster thin_clusters[]; };
+
+// Nearest hit distance in (0, t_max) on a thin triangle that blocks the receiver, or t_max. Clusters
+// are culled by their bounding spheres.
+float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
+    float best = t_max;
+    if (thin_clusters[0].range.y == 0u) return best;
+    uint clusters = uint(thin_clusters.length());
+    for (uint k = 0u; k < clusters; ++k) {
+        ThinCluster cl = thin_clusters[k];
+        if (cl.range.y == 0u) continue;
+        vec2 t = ray_sphere(o, d, cl.bound);
+        if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
+        for (uint i = cl.range.x; i < cl.range.x + cl.range.y; ++i) {
+            ThinTriangle tri = thin_triangles[i];
+            float orient;
+            vec3 p = g_receiver_p;
+            if (!thin_blocks_receiver(tri.v0.xyz - p, tri.v1.xyz - p, tri.v2.xyz - p, orient)) continue;
+            float h = intersect_triangle(o, d, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, best);
+            if (h > 0.0) {
+                best = h;
+                if (any_hit) return best;
+            }
         }
     }
     return best;

@@ -22,8 +22,10 @@
 //! `sg` (the paper's Eq. 5), and for `ratio`/`sg`: `K` environment lobes (1..32) and `refine` rounds
 //! of coordinate descent on the greedy environment fit (6; 0 = greedy only).
 //!
-//! Not modelled: thin shells (triangles rasterized into patches, §5) and anisotropic BRDF lobes.
-//! [`cpu`] is the f64 twin of the whole per-point integral.
+//! Thin shells (§5): triangles of meshes marked thin are rasterized into the patch grids (the
+//! hemisphere grid of `diffuse=map`, each lobe's grid otherwise, the specular lobe's always;
+//! shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
+//! Not modelled: anisotropic BRDF lobes. [`cpu`] is the f64 twin of the whole per-point integral.
 
 use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Image, Recorder, Result};
@@ -32,6 +34,8 @@ use crate::tables::MathTables;
 use engine_math::prefilter::resample;
 use engine_math::sg::{fit_envmap_sgs, refine_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
 use engine_math::table_gen::MathTable;
+
+pub mod thin;
 
 /// Which ISG evaluator computes Ŝ at patch corners.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -187,13 +191,16 @@ struct Prepared {
 
 pub struct Isg {
     pipelines: TargetPipelines,
+    /// The variant with thin shells (`ISG_THIN_SHELLS`), built at the first prepare of a scene with a
+    /// thin mesh: scenes without one run shaders with no thin-shell code at all.
+    thin_pipelines: Option<TargetPipelines>,
     pub options: IsgOptions,
     prepared: Option<Prepared>,
 }
 
 impl Isg {
     pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
-        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, options, prepared: None })
+        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, thin_pipelines: None, options, prepared: None })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -214,6 +221,9 @@ impl Technique for Isg {
 
     fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
         self.release(gpu);
+        if scene.thin_triangle_count > 0 && self.thin_pipelines.is_none() {
+            self.thin_pipelines = Some(TargetPipelines::with_defines(gpu, "isg", &[("ISG_THIN_SHELLS", "1")])?);
+        }
         // `diffuse=map` reads the prefiltered environment itself: no SG fit.
         let fitted = match self.options.diffuse {
             Diffuse::Map => Vec::new(),
@@ -279,7 +289,14 @@ impl Technique for Isg {
             return Err(GpuError::Other("technique 'isg' recorded before prepare()".into()));
         };
         let lut = p.tables.get(MathTable::IsgLut).ok_or_else(|| GpuError::Other("isg: table not loaded".into()))?;
-        self.pipelines.record(
+        let pipelines = match &self.thin_pipelines {
+            Some(t) if inputs.scene.thin_triangle_count > 0 => t,
+            _ if inputs.scene.thin_triangle_count > 0 => {
+                return Err(GpuError::Other("isg: a scene with thin meshes recorded before prepare()".into()))
+            }
+            _ => &self.pipelines,
+        };
+        pipelines.record(
             rec,
             "isg",
             inputs,
@@ -291,6 +308,8 @@ impl Technique for Isg {
                 Binding::buffer("IsgTable", &lut.buffer),
                 Binding::buffer("BvhNodes", &inputs.scene.bvh_nodes),
                 Binding::buffer("IsgParams", &p.params),
+                Binding::buffer("ThinTriangles", &inputs.scene.thin_triangles),
+                Binding::buffer("ThinClusters", &inputs.scene.thin_clusters),
             ],
         )
     }
@@ -298,6 +317,9 @@ impl Technique for Isg {
     fn destroy(mut self: Box<Self>, gpu: &Gpu) {
         self.release(gpu);
         self.pipelines.destroy(gpu);
+        if let Some(t) = self.thin_pipelines.take() {
+            t.destroy(gpu);
+        }
     }
 }
 
@@ -483,6 +505,21 @@ pub mod cpu {
         spheres: &[Sphere],
         lut: &IsgLut,
     ) -> (f64, f64) {
+        occlusion_with_thin(p, n, axis, lambda, o, spheres, &[], lut)
+    }
+
+    /// [`occlusion`] with thin-shell triangles (world space) among the blockers ([`super::thin`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn occlusion_with_thin(
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        lambda: f64,
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+        lut: &IsgLut,
+    ) -> (f64, f64) {
         let g = grid(axis, lambda, o);
         let mut mask = vec![vec![false; g.side]; g.side];
         let mut horizon = 0.0;
@@ -508,6 +545,7 @@ pub mod cpu {
             mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
             marked = true;
         }
+        marked |= super::thin::mark_thin(&mut mask, &g, p, n, thin);
         (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
     }
 
@@ -515,6 +553,18 @@ pub mod cpu {
     /// (centre direction, cosine-weighted solid angle ∫_patch (n·ω) dω). The shader subtracts
     /// Σ L̄(centre) · weight from E(n), L̄ the environment prefiltered to the patch width.
     pub fn map_occluded_patches(p: DVec3, n: DVec3, o: &IsgOptions, spheres: &[Sphere]) -> Vec<(DVec3, f64)> {
+        map_occluded_patches_with_thin(p, n, o, spheres, &[])
+    }
+
+    /// [`map_occluded_patches`] with thin-shell triangles (world space) among the blockers
+    /// ([`super::thin`]), marked into the same hemisphere grid.
+    pub fn map_occluded_patches_with_thin(
+        p: DVec3,
+        n: DVec3,
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+    ) -> Vec<(DVec3, f64)> {
         let g = grid(n, 0.0, o);
         let mut mask = vec![vec![false; g.side]; g.side];
         let cone = Cone::new(p, n, g.cone);
@@ -533,6 +583,7 @@ pub mod cpu {
             }
             mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
         }
+        super::thin::mark_thin(&mut mask, &g, p, n, thin);
         let mut out = Vec::new();
         for (i, row) in mask.iter().enumerate() {
             let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
@@ -585,27 +636,40 @@ pub mod cpu {
         spheres: &[Sphere],
         lut: &IsgLut,
     ) -> ([f64; 3], f64) {
+        shade_diffuse_and_ratio_with_thin(pt, lobes, o, spheres, &[], lut)
+    }
+
+    /// [`shade_diffuse_and_ratio`] with thin-shell triangles (world space) among the blockers.
+    pub fn shade_diffuse_and_ratio_with_thin(
+        pt: &Point,
+        lobes: &[SgRgb],
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+        lut: &IsgLut,
+    ) -> ([f64; 3], f64) {
         let n = pt.normal;
         let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
         let mut e = [0.0; 3];
         for l in lobes {
             let prod = sg_product_log(&Sg::new(l.axis, l.lambda, 1.0), &cosine);
             let axis = DVec3::from_array(prod.axis);
-            let (_, occ) = occlusion(pt.position, n, axis, prod.lambda, o, spheres, lut);
+            let (_, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
             let v = visible_integral(prod.log_mu, prod.lambda, occ);
             for (ec, mu) in e.iter_mut().zip(l.mu) {
                 *ec += mu * v;
             }
         }
         let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
-        let ratio = if pt.specular.iter().all(|&k| k == 0.0) || spheres.is_empty() {
+        let ratio = if pt.specular.iter().all(|&k| k == 0.0) || (spheres.is_empty() && thin.is_empty()) {
             1.0
         } else {
             let ndv = n.dot(pt.view).abs().max(1e-6);
             let r = (2.0 * n.dot(pt.view) * n - pt.view).normalize();
             let lambda = pt.shininess / (4.0 * ndv);
             let prod = sg_product_log(&Sg::new([r.x, r.y, r.z], lambda, 1.0), &cosine);
-            let (hor, occ) = occlusion(pt.position, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+            let axis = DVec3::from_array(prod.axis);
+            let (hor, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
             let full = 2.0 * PI * sphere_unit(prod.lambda);
             let above = full - isg_normalization(prod.lambda) * hor;
             if above > 0.0 {

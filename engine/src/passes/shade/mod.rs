@@ -88,8 +88,13 @@ pub struct TargetPipelines {
 
 impl TargetPipelines {
     pub fn new(gpu: &Gpu, technique: &str) -> Result<Self> {
-        let pixel = gpu.create_compute_pipeline(&format!("shade/{technique}/pixel.comp"), &[])?;
-        match gpu.create_compute_pipeline(&format!("shade/{technique}/vertex.comp"), &[]) {
+        Self::with_defines(gpu, technique, &[])
+    }
+
+    /// The same compiled with preprocessor `defines` (a variant of the technique's shaders).
+    pub fn with_defines(gpu: &Gpu, technique: &str, defines: &[(&str, &str)]) -> Result<Self> {
+        let pixel = gpu.create_compute_pipeline(&format!("shade/{technique}/pixel.comp"), defines)?;
+        match gpu.create_compute_pipeline(&format!("shade/{technique}/vertex.comp"), defines) {
             Ok(vertex) => Ok(Self { pixel, vertex }),
             Err(e) => {
                 gpu.destroy_compute_pipeline(pixel);

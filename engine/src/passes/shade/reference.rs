@@ -59,7 +59,9 @@ pub enum Visibility {
     /// rules (`engine::blockers::geom::blocker_for_receiver`: eliminated behind the tangent plane,
     /// shrunk to tangency when the point is inside, the tangent sphere in front when it straddles),
     /// exactly the proxy the techniques see; every such sphere the ray enters in front of the point
-    /// blocks.
+    /// blocks. The triangles of thin meshes (`GpuScene::thin_triangles`, their own proxy) block too,
+    /// through the same rule as in ISG (a triangle whose plane passes within 1e-3 of its longest edge
+    /// of the point, or of zero area, does not).
     Spheres,
 }
 
@@ -519,6 +521,8 @@ impl Technique for Reference {
             Binding::buffer("Diagnostics", &t.diagnostics),
             Binding::buffer("BlockerSpheres", &s.spheres),
             Binding::buffer("BvhNodes", &s.bvh_nodes),
+            Binding::buffer("ThinTriangles", &s.thin_triangles),
+            Binding::buffer("ThinClusters", &s.thin_clusters),
         ];
         rec.begin_pass(name);
         let push = bytemuck::bytes_of(&params);
