@@ -41,8 +41,9 @@ struct Args {
     /// `cook-torrance:roughness=0.1,ks=0.5`, `ashikhmin-shirley:nu=1000,nv=100,ks=0.5`, ….
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
-    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, or `none` (only
-    /// the techniques' times).
+    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, `unoccluded`
+    /// (no shadows: the error of `none` is then the BRDF's and lighting's representation error), or
+    /// `none` (only the techniques' times).
     #[arg(long, default_value = "both")]
     visibility: String,
     /// Refit mesh 0 (the bunny) with this many blocker spheres (cached in <out>/spheres/).
@@ -89,8 +90,9 @@ fn run() -> Result<()> {
         "spheres" => vec![("spheres", Visibility::Spheres)],
         "triangles" => vec![("triangles", Visibility::Triangles)],
         "both" => vec![("spheres", Visibility::Spheres), ("triangles", Visibility::Triangles)],
+        "unoccluded" => vec![("unoccluded", Visibility::Unoccluded)],
         "none" => Vec::new(),
-        v => bail!("--visibility {v}: use spheres, triangles or both"),
+        v => bail!("--visibility {v}: use spheres, triangles, both, unoccluded or none"),
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(count) = args.spheres {
