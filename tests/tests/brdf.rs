@@ -146,17 +146,22 @@ fn none_matches_unshadowed_reference() {
     }
 }
 
-/// Without blockers every Eq. 9 ratio is 1: `isg` equals `none` for every BRDF (f32 rounding only).
+/// Without blockers every Eq. 9 ratio is 1: `isg` equals `none` for every BRDF (f32 rounding only),
+/// per pixel and per vertex.
 #[test]
 fn isg_without_blockers_equals_none() {
     let gpu = engine_tests::gpu();
     let scene = four_spheres(None, 0.2);
-    let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
-    let (isg, _) = engine_tests::render(&gpu, &scene, settings("isg"));
+    for per_vertex in [false, true] {
+        let s = |t: &str| RenderSettings { per_vertex, ..settings(t) };
+        let (none, _) = engine_tests::render(&gpu, &scene, s("none"));
+        let (isg, _) = engine_tests::render(&gpu, &scene, s("isg"));
+        assert_finite(&isg, "isg");
+        assert_finite(&none, "none");
+        let e = engine_tests::relative_rmse(&isg, &none, |_| true);
+        assert!(e < 1e-5, "isg without blockers vs none (per vertex: {per_vertex}): relative RMSE {e}");
+    }
     gpu.shutdown().expect("clean teardown");
-    assert_finite(&isg, "isg");
-    let e = engine_tests::relative_rmse(&isg, &none, |_| true);
-    assert!(e < 1e-5, "isg without blockers vs none: relative RMSE {e}");
 }
 
 /// Directional albedo ∫ f_s (n·l) dl at (n, t, v) by quadrature in the frame of the mirror
