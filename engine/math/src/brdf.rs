@@ -13,7 +13,8 @@
 //! reflect at grazing angles); every technique and the reference follow that rule.
 //!
 //! **Lobes.** Each model's distribution over half vectors is one SG (Blinn-Phong: `(n·h)^s ≈
-//! e^{s(n·h − 1)}`; Cook-Torrance: the L2 fit of D, [`fit_ndf_sg`]) or seven SGs
+//! e^{s(n·h − 1)}`; Cook-Torrance: λ of the L2 fit of D, [`fit_ndf_sg`], with the amplitude that
+//! normalizes the lobe like an NDF) or seven SGs
 //! (Ashikhmin–Shirley, [`fit_ashikhmin_shirley_compact`]), warped to the light direction
 //! ([`crate::sg::warp_half_vector_lobe`]: axis `reflect(v, h_j)`, λ_j = λ_h/(4|h_j·v|)). The rest of
 //! the BRDF (normalization, Fresnel, shadowing, 1/(n·l n·v)) and the cosine `(n·l)⁺` are
@@ -51,8 +52,8 @@ pub enum SpecularModel {
 }
 
 /// The SG fit of a model's half-vector distribution, computed once per material (on the host) and
-/// stored beside it on the GPU. Blinn-Phong: λ_h = s, μ = 1. Cook-Torrance: λ_h, μ of
-/// [`fit_ndf_sg`]. Ashikhmin–Shirley: [`AshikhminShirleyFit`] (`mu[|k|]`, δ, wide axis).
+/// stored beside it on the GPU. Blinn-Phong: λ_h = s, μ = 1. Cook-Torrance: λ_h of [`fit_ndf_sg`],
+/// μ normalizing the lobe like an NDF (∫ G(h)(n·h) dω_h = 1). Ashikhmin–Shirley: [`AshikhminShirleyFit`] (`mu[|k|]`, δ, wide axis).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HalfVectorFit {
     pub lambda_h: f64,
@@ -71,7 +72,12 @@ impl HalfVectorFit {
                 Self { lambda_h: s, mu: [1.0, 0.0, 0.0, 0.0], delta: 0.0, wide_is_b: true }
             }
             SpecularModel::CookTorrance { ndf, alpha } => {
-                let (l, mu) = fit_ndf_sg(ndf, alpha);
+                // λ from the L2 fit; μ normalizes the lobe as an NDF, ∫ μ e^{λ(n·h − 1)} (n·h) dω_h = 1
+                // like D itself (the L2 amplitude keeps GGX's tails out and loses 15 % of the energy:
+                // measured relative RMSE against the exact BRDF 15 % → 6.9 % for GGX, 6.3 % → 6.2 % for
+                // Beckmann, tests/tests/brdf.rs).
+                let (l, _) = fit_ndf_sg(ndf, alpha);
+                let mu = 1.0 / (2.0 * PI * (1.0 / l + (-l).exp_m1() / (l * l)));
                 Self { lambda_h: l, mu: [mu, 0.0, 0.0, 0.0], delta: 0.0, wide_is_b: true }
             }
             SpecularModel::AshikhminShirley { nu, nv } => {
@@ -386,8 +392,8 @@ mod tests {
     }
 
     /// The lobes integrate (constant environment) to the BRDF's directional albedo up to the SG
-    /// representation error: measured 2–6 % (Blinn-Phong, Beckmann, Ashikhmin–Shirley; bound 10 %)
-    /// and −15 % for GGX (one SG misses its long tails; bound 20 %).
+    /// representation error: measured 2–6 % (Blinn-Phong, Beckmann, Ashikhmin–Shirley) and 7.7 % for
+    /// GGX (its normalized lobe carries the NDF's energy, but Smith G is taken at the axis); bound 10 %.
     #[test]
     fn lobes_match_albedo_under_constant_light() {
         let (n, t) = ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
@@ -398,8 +404,7 @@ mod tests {
                 let s = specular_sum_constant_env(&lobes, [1.0; 3])[0];
                 let a = albedo(&m, 0.5, v);
                 eprintln!("{m:?} v {v:?}: lobes {s} albedo {a} rel {}", (s - a) / a);
-                let bound = if matches!(m, SpecularModel::CookTorrance { ndf: Ndf::Ggx, .. }) { 0.2 } else { 0.1 };
-                assert!(((s - a) / a).abs() < bound, "{m:?} v {v:?}: lobes {s} albedo {a}");
+                assert!(((s - a) / a).abs() < 0.1, "{m:?} v {v:?}: lobes {s} albedo {a}");
             }
         }
     }
