@@ -232,6 +232,9 @@ fn bsdf_xml(id: &str, m: &Material) -> String {
 
 /// Write `dir/scene.xml`, `dir/meshes/*.ply` and `dir/envmap.exr` (module documentation).
 pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result<Exported> {
+    if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
+        anyhow::bail!("--export: material {i} is not Blinn-Phong; only Blinn-Phong materials are exported");
+    }
     let mesh_dir = dir.join("meshes");
     std::fs::create_dir_all(&mesh_dir).with_context(|| format!("creating {}", mesh_dir.display()))?;
     let cam = opts.camera.unwrap_or(scene.camera);

@@ -148,6 +148,13 @@ pub fn sphere_scene(stacks: u32) -> Scene {
     }
 }
 
+/// Set the specular BRDF of material 0 from a `--brdf` spec
+/// ([`engine::scene::Material::apply_brdf_spec`]).
+pub fn apply_brdf(scene: &mut Scene, spec: &str) -> anyhow::Result<()> {
+    let m = scene.materials.first_mut().ok_or_else(|| anyhow::anyhow!("--brdf: the scene has no material"))?;
+    m.apply_brdf_spec(spec).map_err(anyhow::Error::msg)
+}
+
 /// Build a scene by name.
 pub fn build_scene(name: &str, env: Option<&Path>) -> anyhow::Result<Scene> {
     match name {

@@ -63,6 +63,12 @@ struct Args {
     /// step 1/30 s, the viewer follows the clock.
     #[arg(long)]
     animate: bool,
+    /// Specular BRDF of material 0 (the bunny, sphere, plane or arm): `blinn-phong:s=1000,ks=0.5`,
+    /// `cook-torrance:roughness=0.1,ndf=beckmann|ggx,ks=0.5`,
+    /// `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0` (keys optional; see
+    /// engine::scene::Material::apply_brdf_spec).
+    #[arg(long, value_name = "SPEC")]
+    brdf: Option<String>,
     /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr; see
     /// demos/src/export.rs) and write our render of the same frame there as engine.exr / engine.png.
     #[arg(long, value_name = "DIR")]
@@ -78,7 +84,10 @@ fn main() {
 
 fn run() -> anyhow::Result<()> {
     let mut args = Args::parse();
-    let scene = demos::build_scene(&args.scene, args.env.as_deref())?;
+    let mut scene = demos::build_scene(&args.scene, args.env.as_deref())?;
+    if let Some(spec) = &args.brdf {
+        demos::apply_brdf(&mut scene, spec)?;
+    }
     // A window needs its display's surface extensions on the instance: open the display first.
     let (event_loop, surface_extensions) = match args.window {
         true => {

@@ -52,6 +52,24 @@ pub fn measure_technique(gpu: &Gpu, scene: &Scene, settings: RenderSettings, fra
     Ok(Measured { spec, shade_ms: median(shade), frame_ms: median(total), hdr, ldr })
 }
 
+/// Refit mesh 0 of `scene` (named `scene_name`) with `count` blocker spheres, cached in `dir`
+/// (`<scene_name>-<count>.spheres.json`), and make them its blocker set.
+pub fn refit_first_mesh(scene: &mut Scene, scene_name: &str, count: usize, dir: &Path) -> Result<()> {
+    let settings = engine::blockers::fit::FitSettings { count, ..Default::default() };
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mesh = scene.meshes.first().context("the scene has no mesh")?;
+    let cache = dir.join(format!("{scene_name}-{count}.spheres.json"));
+    eprintln!("fitting {count} spheres to mesh 0 (cached in {})...", cache.display());
+    let t0 = std::time::Instant::now();
+    let spheres = engine::scene::blockers::fitted_spheres(mesh, &settings, &cache)?;
+    eprintln!("{} spheres in {:.1} s", spheres.len(), t0.elapsed().as_secs_f64());
+    match scene.blockers.spheres.first_mut() {
+        Some(slot) => *slot = Some(spheres),
+        None => scene.blockers.spheres.push(Some(spheres)),
+    }
+    Ok(())
+}
+
 /// A converged reference image.
 pub struct ReferenceImage {
     pub visibility: Visibility,

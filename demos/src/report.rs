@@ -60,6 +60,9 @@ pub struct SceneSpec {
     /// k_s of material 0.
     #[serde(default)]
     pub ks: Option<f32>,
+    /// Specular BRDF of material 0 as `demo --brdf` takes it (applied after gloss/ks).
+    #[serde(default)]
+    pub brdf: Option<String>,
     /// Shading rates for this scene instead of the sweep's.
     #[serde(default)]
     pub shading: Option<Vec<String>>,
@@ -173,6 +176,9 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
             if let Some(k) = spec.ks {
                 m.specular = glam::Vec3::splat(k);
             }
+        }
+        if let Some(b) = &spec.brdf {
+            crate::apply_brdf(&mut scene, b)?;
         }
         let has_spheres = scene.blockers.spheres.iter().any(Option::is_some);
         let mut measured: Vec<(String, Measured)> = Vec::new();
@@ -335,30 +341,53 @@ pub fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
     std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
 }
 
-/// Technique family of a spec (`isg:patches=8` → `isg`).
-fn family(spec: &str) -> &str {
-    spec.split(':').next().unwrap_or(spec)
+/// Technique family of a spec: the spec without its swept sizes `patches` and `K`
+/// (`isg:patches=8,diffuse=sg` → `isg:diffuse=sg`), so that a family's points trace a speed-error curve.
+fn family(spec: &str) -> String {
+    let (name, opts) = spec.split_once(':').unwrap_or((spec, ""));
+    let kept: Vec<&str> =
+        opts.split(',').filter(|kv| !kv.is_empty() && !kv.starts_with("patches=") && !kv.starts_with("K=")).collect();
+    if kept.is_empty() {
+        name.to_string()
+    } else {
+        format!("{name}:{}", kept.join(","))
+    }
 }
 
-fn pareto(title: &str, rows: &[&Row]) -> plot::Plot {
+/// Against which reference a plot measures.
+#[derive(Clone, Copy)]
+enum Against {
+    Triangles,
+    Spheres,
+}
+
+fn pareto(title: &str, rows: &[&Row], against: Against) -> plot::Plot {
+    let err = |r: &Row| match against {
+        Against::Triangles => r.vs_triangles,
+        Against::Spheres => r.vs_spheres,
+    };
     let mut series: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     for r in rows.iter().filter(|r| !r.technique.starts_with("reference")) {
-        if let Some(e) = &r.vs_triangles {
+        if let Some(e) = err(r) {
             series.entry(format!("{} ({})", family(&r.technique), r.shading)).or_default().push((r.shade_ms, e.rmse));
         }
     }
+    let y_label = match against {
+        Against::Triangles => "relative RMSE % vs triangle reference",
+        Against::Spheres => "relative RMSE % vs sphere-proxy reference",
+    };
     let mut p = plot::Plot::new(title)
         .size(820.0, 500.0)
         .x_axis("GPU ms (shading passes, median)", plot::Scale::Log10)
-        .y_axis("relative RMSE % vs triangle reference", plot::Scale::Log10)
+        .y_axis(y_label, plot::Scale::Log10)
         .legend(plot::Legend::TopRight);
     for (name, mut pts) in series {
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         p = p.series(plot::Series::new(name, pts, plot::Style::LineMarkers));
     }
-    // The sphere-proxy reference's error is the floor any sphere technique can reach.
+    // Against triangles, the sphere-proxy reference's error is the floor any sphere technique can reach.
     for r in rows.iter().filter(|r| r.technique == "reference/spheres") {
-        if let Some(e) = &r.vs_triangles {
+        if let (Against::Triangles, Some(e)) = (against, &r.vs_triangles) {
             p = p.series(
                 plot::Series::new(
                     format!("proxy error floor ({})", r.scene),
@@ -374,13 +403,18 @@ fn pareto(title: &str, rows: &[&Row]) -> plot::Plot {
 
 fn write_plots(out: &Path, rows: &[Row]) -> Result<()> {
     let all: Vec<&Row> = rows.iter().collect();
-    pareto("time against error, all scenes", &all).write(out.join("pareto.svg"))?;
+    pareto("time against error, all scenes", &all, Against::Triangles).write(out.join("pareto.svg"))?;
     let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     for s in scenes {
         let rs: Vec<&Row> = rows.iter().filter(|r| r.scene == s).collect();
-        pareto(&format!("time against error: {s}"), &rs)
-            .write(out.join(format!("pareto-{}.svg", measure::file_stem(s))))?;
+        let stem = measure::file_stem(s);
+        pareto(&format!("time against error: {s}"), &rs, Against::Triangles)
+            .write(out.join(format!("pareto-{stem}.svg")))?;
+        if rs.iter().any(|r| r.vs_spheres.is_some()) {
+            pareto(&format!("time against error vs the sphere proxy: {s}"), &rs, Against::Spheres)
+                .write(out.join(format!("pareto-{stem}-spheres.svg")))?;
+        }
     }
     Ok(())
 }
@@ -436,6 +470,9 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
         let rows: Vec<&Row> = res.rows.iter().filter(|r| r.scene == scene).collect();
         let _ = writeln!(s, "\n## {scene}\n");
         let _ = writeln!(s, "![{scene}](pareto-{}.svg)\n", measure::file_stem(scene));
+        if res.rows.iter().any(|r| r.scene == *scene && r.vs_spheres.is_some()) {
+            let _ = writeln!(s, "![{scene} vs the sphere proxy](pareto-{}-spheres.svg)\n", measure::file_stem(scene));
+        }
         let _ = writeln!(
             s,
             "| shading | technique | shade ms | frame ms | rel. RMSE % vs triangles | minus ref. noise | max error | FLIP |"
@@ -468,18 +505,22 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
                  sphere-proxy reference.\n",
                 p.rmse, p.debiased, p.flip
             );
-            let _ = writeln!(s, "| shading | technique | total (vs triangles) % | proxy % | technique (vs spheres) % | technique FLIP |");
-            let _ = writeln!(s, "|---|---|---|---|---|---|");
+            let _ = writeln!(
+                s,
+                "| shading | technique | total (vs triangles) % | proxy % | technique (vs spheres) % | minus ref. noise % | technique FLIP |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|---|---|");
             for r in rows.iter().filter(|r| !r.technique.starts_with("reference")) {
                 if let (Some(t), Some(sp)) = (&r.vs_triangles, &r.vs_spheres) {
                     let _ = writeln!(
                         s,
-                        "| {} | `{}` | {} | {} | {} | {:.4} |",
+                        "| {} | `{}` | {} | {} | {} | {} | {:.4} |",
                         r.shading,
                         r.technique,
                         f2(t.rmse),
                         f2(p.rmse),
                         f2(sp.rmse),
+                        f2(sp.debiased),
                         sp.flip
                     );
                 }

@@ -94,14 +94,7 @@ impl GpuScene {
         if vertices.is_empty() || indices.is_empty() {
             return Err(GpuError::Other("the scene has no geometry".into()));
         }
-        let materials: Vec<GpuMaterial> = scene
-            .materials
-            .iter()
-            .map(|m| GpuMaterial {
-                diffuse: [m.diffuse.x, m.diffuse.y, m.diffuse.z, 0.0],
-                specular: [m.specular.x, m.specular.y, m.specular.z, m.shininess],
-            })
-            .collect();
+        let materials: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::from_material).collect();
         let k = scene.environment_intensity;
         let env = LatLongMap {
             width: scene.environment.width,

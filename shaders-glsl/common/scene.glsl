@@ -15,10 +15,17 @@ struct Object {
     mat4 normal_matrix;
 };
 
-// diffuse.rgb = ρ_d; specular.rgb = k_s, specular.w = Blinn-Phong exponent s.
+// diffuse.rgb = ρ_d, diffuse.w = BRDF kind (0 Blinn-Phong, 1 Cook-Torrance Beckmann, 2 Cook-Torrance
+// GGX, 3 Ashikhmin-Shirley); specular.rgb = k_s (F0), specular.w = Blinn-Phong exponent s;
+// brdf = Cook-Torrance (α, λ_h, μ, 0) or Ashikhmin-Shirley (n_u, n_v, λ_h, δ); lobes = Ashikhmin-Shirley
+// amplitudes μ_|k|, k = 0..3; tangent.xyz = anisotropy direction, tangent.w = 1: lobes along b.
+// Twin: engine::passes::layout::GpuMaterial (filled from engine::scene::Material).
 struct Material {
     vec4 diffuse;
     vec4 specular;
+    vec4 brdf;
+    vec4 lobes;
+    vec4 tangent;
 };
 
 struct FrameData {

@@ -3,6 +3,8 @@
 #ifndef SHADE_PREFILTERED_GLSL
 #define SHADE_PREFILTERED_GLSL
 #include "common.glsl"
+#include "../common/brdf.glsl"
+#include "../common/sg.glsl"
 
 vec3 prefiltered_level(sampler2D atlas, vec3 r, float level) {
     float levels = float(frame.size.w);
@@ -40,5 +42,23 @@ vec3 blinn_phong_prefiltered(sampler2D atlas, vec3 n, vec3 view, vec3 ks, float 
     float nr = max(dot(n, r), 0.0);
     float sg_integral = 2.0 * PI * (1.0 - exp(-2.0 * lambda)) / lambda;
     return ks * ((s + 8.0) / (8.0 * PI)) * nr * prefiltered_lookup(atlas, r, lambda) * sg_integral;
+}
+// ∫ L G_j for one specular lobe (unit amplitude): Γ̄(a_j, λ_j) · 2π(1 − e^{−2λ_j})/λ_j.
+vec3 prefiltered_lobe_integral(sampler2D atlas, SpecLobe lobe) {
+    return prefiltered_lookup(atlas, lobe.axis, lobe.lambda) * sg_integral(lobe.lambda, 1.0);
+}
+
+// The unshadowed specular term of any material (common/brdf.glsl): Σ_j w_j ∫ L G_j, clamped at 0
+// (twin: engine::math::brdf::specular_sum). Blinn-Phong keeps blinn_phong_prefiltered exactly.
+vec3 specular_prefiltered(sampler2D atlas, Material m, vec3 n, vec3 view) {
+    if (brdf_kind(m) == BRDF_BLINN_PHONG) return blinn_phong_prefiltered(atlas, n, view, m.specular.rgb, m.specular.w);
+    SpecLobe lobes[BRDF_MAX_LOBES];
+    int count = brdf_specular_lobes(m, n, view, lobes);
+    vec3 sum = vec3(0.0);
+    for (int j = 0; j < count; ++j) {
+        if (all(equal(lobes[j].weight, vec3(0.0)))) continue;
+        sum += lobes[j].weight * prefiltered_lobe_integral(atlas, lobes[j]);
+    }
+    return max(sum, vec3(0.0));
 }
 #endif

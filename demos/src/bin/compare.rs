@@ -37,6 +37,10 @@ struct Args {
     /// Override k_s of material 0.
     #[arg(long)]
     ks: Option<f32>,
+    /// Specular BRDF of material 0 (applied after --gloss/--ks), as `demo --brdf`:
+    /// `cook-torrance:roughness=0.1,ks=0.5`, `ashikhmin-shirley:nu=1000,nv=100,ks=0.5`, ….
+    #[arg(long, value_name = "SPEC")]
+    brdf: Option<String>,
     /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, `unoccluded` (no
     /// shadows: the techniques' lighting and BRDF representation error alone), or `none` (only the
     /// techniques' times).
@@ -60,7 +64,7 @@ struct Args {
     #[arg(long)]
     per_vertex: bool,
     /// Keep converged references in this folder, keyed by everything that determines them (scene, env, size,
-    /// material overrides, spheres, visibility, fraction, max spp), and reuse them. The fraction rule converges
+    /// material overrides incl. --brdf, spheres, visibility, fraction, max spp), and reuse them. The fraction rule converges
     /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
@@ -84,6 +88,9 @@ fn run() -> Result<()> {
             m.specular = glam::Vec3::splat(k);
         }
     }
+    if let Some(spec) = &args.brdf {
+        demos::apply_brdf(&mut scene, spec)?;
+    }
     let visibilities: Vec<(&str, Visibility)> = match args.visibility.as_str() {
         "spheres" => vec![("spheres", Visibility::Spheres)],
         "triangles" => vec![("triangles", Visibility::Triangles)],
@@ -94,19 +101,7 @@ fn run() -> Result<()> {
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(count) = args.spheres {
-        let settings = engine::blockers::fit::FitSettings { count, ..Default::default() };
-        let dir = args.out.join("spheres");
-        std::fs::create_dir_all(&dir)?;
-        let mesh = scene.meshes.first().context("the scene has no mesh")?;
-        let cache = dir.join(format!("{}-{count}.spheres.json", args.scene));
-        eprintln!("fitting {count} spheres to mesh 0 (cached in {})...", cache.display());
-        let t0 = std::time::Instant::now();
-        let spheres = engine::scene::blockers::fitted_spheres(mesh, &settings, &cache)?;
-        eprintln!("{} spheres in {:.1} s", spheres.len(), t0.elapsed().as_secs_f64());
-        match scene.blockers.spheres.first_mut() {
-            Some(slot) => *slot = Some(spheres),
-            None => scene.blockers.spheres.push(Some(spheres)),
-        }
+        measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
     }
     let gpu = Gpu::new(&GpuDesc::default())?;
     let result = measure(&gpu, &scene, &args, &visibilities);
@@ -135,14 +130,15 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         measured.push(m);
     }
     println!(
-        "scene {}{} {}x{}{}, gloss {:?}, ks {:?}",
+        "scene {}{} {}x{}{}, gloss {:?}, ks {:?}, brdf {}",
         args.scene,
         args.spheres.map(|n| format!(" ({n} spheres)")).unwrap_or_default(),
         w,
         h,
         if args.per_vertex { " per vertex" } else { "" },
         args.gloss,
-        args.ks
+        args.ks,
+        args.brdf.as_deref().unwrap_or("(scene's)")
     );
     if visibilities.is_empty() {
         println!("| technique | shade ms |");
@@ -163,8 +159,17 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         };
         let cache = args.reference_cache.as_ref().map(|dir| {
             let key = format!(
-                "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}",
-                args.scene, args.env, w, h, args.gloss, args.ks, args.spheres, args.fraction, args.max_spp
+                "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}{}",
+                args.scene,
+                args.env,
+                w,
+                h,
+                args.gloss,
+                args.ks,
+                args.spheres,
+                args.fraction,
+                args.max_spp,
+                args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
             );
             let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
             dir.join(format!("{}-{vis_name}-{hash:016x}.refimg", args.scene))

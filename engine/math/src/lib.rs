@@ -3,6 +3,7 @@
 //! Every GLSL function in `shaders-glsl/common` has its twin here and a GPU-vs-CPU test.
 //! The formulas follow DESIGN.md §3 (which restores the symbols the paper texts lost).
 
+pub mod brdf;
 pub mod envmap;
 pub mod isg;
 pub mod lobes;

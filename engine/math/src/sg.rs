@@ -586,6 +586,40 @@ pub fn ashikhmin_shirley_d(n: Vec3, t: Vec3, b: Vec3, nu: f64, nv: f64, h: Vec3)
 /// symmetric amplitudes: (δ, λ) by a small deterministic search, amplitudes by linear least squares
 /// on a tangent-plane grid; the fit minimizes the L2 error over the half-vector hemisphere.
 pub fn fit_ashikhmin_shirley_h(nu: f64, nv: f64) -> Vec<(Vec3, f64, f64)> {
+    let f = fit_ashikhmin_shirley_compact(nu, nv);
+    let amp = [f.mu[3], f.mu[2], f.mu[1], f.mu[0], f.mu[1], f.mu[2], f.mu[3]];
+    f.axes().into_iter().zip(amp).map(|(a, mu)| (a, f.lambda, mu)).collect()
+}
+
+/// The 7-lobe Ashikhmin–Shirley fit in compact form: lobe k = −3..3 has axis
+/// `sin(kδ) w + cos(kδ) n` in the tangent frame (w = b when `wide_is_b`, else t), sharpness λ
+/// and amplitude `mu[|k|]`. This is what a shader needs to rebuild the lobes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AshikhminShirleyFit {
+    pub wide_is_b: bool,
+    pub delta: f64,
+    pub lambda: f64,
+    pub mu: [f64; 4],
+}
+
+impl AshikhminShirleyFit {
+    /// The 7 axes in the tangent frame (t, b, n), k = −3..3.
+    pub fn axes(&self) -> Vec<Vec3> {
+        (-3..=3)
+            .map(|k| {
+                let (s, c) = (k as f64 * self.delta).sin_cos();
+                if self.wide_is_b {
+                    [0.0, s, c]
+                } else {
+                    [s, 0.0, c]
+                }
+            })
+            .collect()
+    }
+}
+
+/// [`fit_ashikhmin_shirley_h`] in compact form ([`AshikhminShirleyFit`]).
+pub fn fit_ashikhmin_shirley_compact(nu: f64, nv: f64) -> AshikhminShirleyFit {
     assert!(nu > 0.0 && nv > 0.0);
     let (wide_is_b, e_narrow, e_wide) = if nu >= nv { (true, nu, nv) } else { (false, nv, nu) };
     let n_ax = [0.0, 0.0, 1.0];
@@ -660,8 +694,7 @@ pub fn fit_ashikhmin_shirley_h(nu: f64, nv: f64) -> Vec<(Vec3, f64, f64)> {
         }
     }
     let (_, delta, lambda, x) = best;
-    let amp = [x[3], x[2], x[1], x[0], x[1], x[2], x[3]];
-    axes_for(delta).into_iter().zip(amp).map(|(a, mu)| (a, lambda, mu)).collect()
+    AshikhminShirleyFit { wide_is_b, delta, lambda, mu: [x[0], x[1], x[2], x[3]] }
 }
 
 /// The 7 Ashikhmin–Shirley lobes over the light direction for view v: each half-vector lobe

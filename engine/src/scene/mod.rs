@@ -29,25 +29,52 @@ impl SceneError {
 
 pub type Result<T> = std::result::Result<T, SceneError>;
 
-/// Our material model: Lambertian diffuse plus a normalized Blinn-Phong specular lobe
-/// f = ρ_d/π + k_s (s+8)/(8π) (n·h)^s (the ISG paper's k_d + k_s s(ω_i, ω_o) form).
-/// glTF metallic-roughness maps onto it in [`Material::from_metallic_roughness`].
+/// Our material model: Lambertian diffuse plus one specular term `f = ρ_d/π + f_s`
+/// (the ISG paper's k_d + k_s s(ω_i, ω_o) form), f_s chosen by [`Brdf`]:
+/// - [`Brdf::BlinnPhong`] (default): `k_s (s+8)/(8π) (n·h)^s`, s = [`Material::shininess`];
+/// - [`Brdf::CookTorrance`]: `D F G / (4 n·l n·v)`, Beckmann or GGX D of width α = `roughness`,
+///   Schlick F with F0 = k_s, separable Smith G of the same NDF;
+/// - [`Brdf::AshikhminShirley`]: anisotropic exponents n_u (along the tangent t), n_v (along n × t),
+///   Schlick F with F0 = k_s. The tangent at a point is [`Material::tangent`] (a world-space
+///   direction) projected on the tangent plane (no UVs or per-vertex tangents needed; it does not
+///   follow an object's rotation).
+///
+/// k_s = 0 means "no specular layer" in every model. Exact formulas: `engine::math::brdf`.
+/// glTF metallic-roughness maps onto Blinn-Phong in [`Material::from_metallic_roughness`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
     /// Diffuse reflectance ρ_d (albedo), linear RGB.
     pub diffuse: Vec3,
-    /// Specular scale k_s, linear RGB.
+    /// Specular scale k_s (Cook-Torrance, Ashikhmin–Shirley: Fresnel F0), linear RGB.
     pub specular: Vec3,
-    /// Blinn-Phong exponent s (glossiness).
+    /// Blinn-Phong exponent s (glossiness), used by [`Brdf::BlinnPhong`].
     pub shininess: f32,
+    /// The specular model.
+    pub brdf: Brdf,
+    /// Ashikhmin–Shirley: world-space direction whose projection on the tangent plane is t.
+    pub tangent: Vec3,
 }
+
+/// The specular term of a [`Material`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Brdf {
+    /// Normalized Blinn-Phong with exponent [`Material::shininess`].
+    #[default]
+    BlinnPhong,
+    /// Cook-Torrance with the NDF `ndf` of width α = `roughness`.
+    CookTorrance { ndf: Ndf, roughness: f32 },
+    /// Ashikhmin–Shirley with exponents n_u, n_v.
+    AshikhminShirley { nu: f32, nv: f32 },
+}
+
+pub use engine_math::sg::Ndf;
 
 impl Material {
     pub fn diffuse(albedo: Vec3) -> Self {
-        Self { diffuse: albedo, specular: Vec3::ZERO, shininess: 1.0 }
+        Self { diffuse: albedo, specular: Vec3::ZERO, shininess: 1.0, brdf: Brdf::BlinnPhong, tangent: Vec3::Y }
     }
     pub fn glossy(albedo: Vec3, ks: f32, shininess: f32) -> Self {
-        Self { diffuse: albedo, specular: Vec3::splat(ks), shininess }
+        Self { specular: Vec3::splat(ks), shininess, ..Self::diffuse(albedo) }
     }
     /// glTF base colour / metallic / roughness: ρ_d = base (1 − metallic), k_s = mix(0.04, base,
     /// metallic), and s = 2/α² − 2 with α = roughness² (the Beckmann–Blinn correspondence), clamped
@@ -56,10 +83,82 @@ impl Material {
         let m = metallic.clamp(0.0, 1.0);
         let alpha = (roughness.clamp(0.0, 1.0) * roughness.clamp(0.0, 1.0)).max(1e-3);
         Self {
-            diffuse: base * (1.0 - m),
             specular: Vec3::splat(0.04).lerp(base, m),
             shininess: (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 1e5),
+            ..Self::diffuse(base * (1.0 - m))
         }
+    }
+
+    /// The specular model in f64 for `engine::math::brdf`.
+    pub fn specular_model(&self) -> engine_math::brdf::SpecularModel {
+        use engine_math::brdf::SpecularModel as M;
+        match self.brdf {
+            Brdf::BlinnPhong => M::BlinnPhong { s: self.shininess as f64 },
+            Brdf::CookTorrance { ndf, roughness } => M::CookTorrance { ndf, alpha: roughness as f64 },
+            Brdf::AshikhminShirley { nu, nv } => M::AshikhminShirley { nu: nu as f64, nv: nv as f64 },
+        }
+    }
+
+    /// Set the specular model from a spec `kind[:key=value,...]` (the `--brdf` option):
+    /// `blinn-phong:s=1000,ks=0.5`, `cook-torrance:roughness=0.1,ndf=ggx,ks=0.5` (ndf `beckmann`
+    /// (default) or `ggx`), `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0`. Keys not given
+    /// keep the material's values (roughness 0.1, n_u = n_v = 100 when switching model). Every key
+    /// is range-checked; errors name the bad key.
+    pub fn apply_brdf_spec(&mut self, spec: &str) -> std::result::Result<(), String> {
+        let (kind, rest) = spec.split_once(':').unwrap_or((spec, ""));
+        let mut m = *self;
+        m.brdf = match kind.trim() {
+            "blinn-phong" => Brdf::BlinnPhong,
+            "cook-torrance" => match self.brdf {
+                b @ Brdf::CookTorrance { .. } => b,
+                _ => Brdf::CookTorrance { ndf: Ndf::Beckmann, roughness: 0.1 },
+            },
+            "ashikhmin-shirley" => match self.brdf {
+                b @ Brdf::AshikhminShirley { .. } => b,
+                _ => Brdf::AshikhminShirley { nu: 100.0, nv: 100.0 },
+            },
+            other => {
+                return Err(format!(
+                    "--brdf '{spec}': unknown model '{other}' (blinn-phong, cook-torrance, ashikhmin-shirley)"
+                ))
+            }
+        };
+        for part in rest.split(',').filter(|p| !p.trim().is_empty()) {
+            let (k, v) =
+                part.split_once('=').ok_or_else(|| format!("--brdf '{spec}': option '{part}' is not key=value"))?;
+            let (k, v) = (k.trim(), v.trim());
+            let num = |lo: f32, hi: f32| -> std::result::Result<f32, String> {
+                match v.parse::<f32>() {
+                    Ok(x) if x.is_finite() && x >= lo && x <= hi => Ok(x),
+                    _ => Err(format!("--brdf '{spec}': key '{k}' = '{v}' is not a number in [{lo}, {hi}]")),
+                }
+            };
+            match (k, &mut m.brdf) {
+                ("ks", _) => m.specular = Vec3::splat(num(0.0, 1.0)?),
+                ("kd", _) => m.diffuse = Vec3::splat(num(0.0, 1.0)?),
+                ("s", Brdf::BlinnPhong) => m.shininess = num(1e-3, 1e6)?,
+                ("roughness", Brdf::CookTorrance { roughness, .. }) => *roughness = num(1e-3, 1.0)?,
+                ("ndf", Brdf::CookTorrance { ndf, .. }) => {
+                    *ndf = match v {
+                        "beckmann" => Ndf::Beckmann,
+                        "ggx" => Ndf::Ggx,
+                        _ => return Err(format!("--brdf '{spec}': key 'ndf' = '{v}' (beckmann or ggx)")),
+                    }
+                }
+                ("nu", Brdf::AshikhminShirley { nu, .. }) => *nu = num(1e-3, 1e6)?,
+                ("nv", Brdf::AshikhminShirley { nv, .. }) => *nv = num(1e-3, 1e6)?,
+                ("tangent", Brdf::AshikhminShirley { .. }) => {
+                    let c: Vec<f32> = v.split('/').filter_map(|x| x.trim().parse().ok()).collect();
+                    if c.len() != 3 || c.iter().any(|x| !x.is_finite()) || c.iter().all(|&x| x == 0.0) {
+                        return Err(format!("--brdf '{spec}': key 'tangent' = '{v}' is not x/y/z (non-zero)"));
+                    }
+                    m.tangent = Vec3::new(c[0], c[1], c[2]).normalize();
+                }
+                _ => return Err(format!("--brdf '{spec}': model '{}' has no key '{k}'", kind.trim())),
+            }
+        }
+        *self = m;
+        Ok(())
     }
 }
 
@@ -129,5 +228,37 @@ impl Scene {
             }
         }
         (lo, hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn brdf_specs_parse_and_name_bad_keys() {
+        let mut m = Material::glossy(Vec3::splat(0.5), 0.15, 200.0);
+        m.apply_brdf_spec("blinn-phong:s=1000,ks=0.5").unwrap();
+        assert_eq!((m.brdf, m.shininess, m.specular), (Brdf::BlinnPhong, 1000.0, Vec3::splat(0.5)));
+        m.apply_brdf_spec("cook-torrance:roughness=0.1,ndf=ggx").unwrap();
+        assert_eq!(m.brdf, Brdf::CookTorrance { ndf: Ndf::Ggx, roughness: 0.1 });
+        m.apply_brdf_spec("ashikhmin-shirley:nu=1000,nv=100,ks=0.25,tangent=1/0/0").unwrap();
+        assert_eq!(m.brdf, Brdf::AshikhminShirley { nu: 1000.0, nv: 100.0 });
+        assert_eq!((m.specular, m.tangent), (Vec3::splat(0.25), Vec3::X));
+        for (bad, key) in [
+            ("cook-torrance:roughness=2", "roughness"),
+            ("cook-torrance:s=10", "s"),
+            ("ashikhmin-shirley:nu=x", "nu"),
+            ("ashikhmin-shirley:tangent=0/0/0", "tangent"),
+            ("blinn-phong:ks=-1", "ks"),
+            ("cook-torrance:ndf=phong", "ndf"),
+            ("phong", "phong"),
+            ("blinn-phong:s", "s"),
+        ] {
+            let before = m;
+            let e = m.apply_brdf_spec(bad).unwrap_err();
+            assert!(e.contains(&format!("'{key}'")), "{bad}: {e}");
+            assert_eq!(m, before, "a failed spec leaves the material unchanged");
+        }
     }
 }

@@ -44,6 +44,7 @@ layout(std430, binding = 15) readonly buffer ThinClusters { ThinCluster thin_clu
 #define ISG_THIN_CLUSTER_COUNT uint(thin_clusters.length())
 #endif
 #include "../../common/isg_visibility.glsl"
+#include "specular.glsl"
 
 // (1 − e^{−2λ})/λ · 2π: the sphere integral of a unit-amplitude SG.
 float isg_full_integral(float lambda) {
@@ -138,6 +139,7 @@ vec3 shade_point(ShadePoint sp) {
 
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return result;
+    if (brdf_kind(sp.material) != BRDF_BLINN_PHONG) return result + isg_specular_lobes(sp, st, spheres, cos_lambda, cos_mu);
     float s = sp.material.specular.w;
     vec3 spec = blinn_phong_prefiltered(prefiltered_env, n, sp.view, ks, s);
     float ratio = 1.0;

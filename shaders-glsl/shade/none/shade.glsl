@@ -1,7 +1,7 @@
 // Technique `none`: unshadowed environment lighting.
 // Diffuse: ρ_d/π · E(n) from the irradiance grid (exact clamped-cosine convolution, rows on the poles).
-// Specular: normalized Blinn-Phong as one warped SG against the SG-prefiltered environment
-// (ISG Eq. 10); see ../prefiltered.glsl.
+// Specular: the material's BRDF as J warped SGs (Blinn-Phong, Cook-Torrance: 1; Ashikhmin-Shirley: 7)
+// against the SG-prefiltered environment (ISG Eq. 10); see ../prefiltered.glsl, ../../common/brdf.glsl.
 #include "../common.glsl"
 #include "../prefiltered.glsl"
 layout(binding = 8) uniform sampler2D irradiance_map;
@@ -11,5 +11,5 @@ vec3 shade_point(ShadePoint sp) {
     vec3 diffuse = sp.material.diffuse.rgb / PI * irradiance_lookup(irradiance_map, sp.normal);
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return diffuse;
-    return diffuse + blinn_phong_prefiltered(prefiltered_env, sp.normal, sp.view, ks, sp.material.specular.w);
+    return diffuse + specular_prefiltered(prefiltered_env, sp.material, sp.normal, sp.view);
 }

@@ -3,7 +3,8 @@
 // with three strategies per sample, combined by the power heuristic (Veach 1997, §9.2):
 //   1. environment importance sampling (luminance × texel solid angle, marginal + conditional CDF);
 //   2. spherical-light sampling (uniform in the subtended cone; one light chosen uniformly);
-//   3. BRDF sampling (cosine for the diffuse lobe, (n·h)^s for the Blinn-Phong lobe, chosen by weight).
+//   3. BRDF sampling (cosine for the diffuse lobe; the specular model's half-vector density,
+//      common/brdf.glsl: (n·h)^s, D(h)(n·h) or Ashikhmin-Shirley's; chosen by weight).
 // The environment is the piecewise-constant map (texelFetch), the same function engine_math's
 // integrals use; lights add their radiance along the directions they subtend and cast no shadows.
 // Nothing is clamped: a non-finite sample is counted in Diagnostics and replaced by zero.
@@ -12,6 +13,7 @@
 #include "../common.glsl"
 #include "trace.glsl"
 #include "../../common/frame.glsl"
+#include "../../common/brdf.glsl"
 
 // Twin of engine::passes::shade::reference::ReferenceParams.
 layout(push_constant) uniform Params {
@@ -64,21 +66,12 @@ vec3 local_to_world(vec3 n, float cos_t, float phi) {
     return normalize(sin_t * cos(phi) * t + sin_t * sin(phi) * b + cos_t * n);
 }
 
-// f(l, v) (n·l)⁺ for f = ρ_d/π + k_s (s+8)/(8π) (n·h)^s.
+// f(l, v) (n·l)⁺ for f = ρ_d/π + f_s, f_s the material's exact specular term (common/brdf.glsl).
 vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
     float nl = dot(n, l);
     if (nl <= 0.0) return vec3(0.0);
     vec3 f = m.diffuse.rgb / PI;
-    vec3 ks = m.specular.rgb;
-    if (any(greaterThan(ks, vec3(0.0)))) {
-        vec3 h = v + l;
-        float len = length(h);
-        if (len > 0.0) {
-            float nh = max(dot(n, h / len), 0.0);
-            float s = m.specular.w;
-            f += ks * ((s + 8.0) / (8.0 * PI)) * pow(nh, s);
-        }
-    }
+    if (brdf_has_specular(m)) f += brdf_specular(m, n, brdf_tangent(m, n), v, l);
     return f * nl;
 }
 
@@ -98,11 +91,9 @@ float brdf_pdf(Material m, float p_spec, vec3 n, vec3 v, vec3 l) {
         float len = length(h);
         if (len > 0.0) {
             h /= len;
-            float nh = dot(n, h);
             float vh = dot(v, h);
-            float s = m.specular.w;
-            // (s+1)/(2π) (n·h)^s over half vectors, / (4 v·h) for the reflection's Jacobian.
-            if (nh > 0.0 && vh > 0.0) pdf += p_spec * (s + 1.0) / (2.0 * PI) * pow(nh, s) / (4.0 * vh);
+            // Half-vector density (brdf_half_pdf) / (4 v·h), the reflection's Jacobian.
+            if (dot(n, h) > 0.0 && vh > 0.0) pdf += p_spec * brdf_half_pdf(m, n, brdf_tangent(m, n), h) / (4.0 * vh);
         }
     }
     return pdf;
@@ -114,8 +105,7 @@ vec3 sample_brdf(Material m, float p_spec, vec3 n, vec3 v, inout uint rng) {
     float u1 = rand(rng);
     float u2 = rand(rng);
     if (xi < p_spec) {
-        float cos_h = pow(1.0 - u1, 1.0 / (m.specular.w + 1.0));
-        vec3 h = local_to_world(n, cos_h, 2.0 * PI * u2);
+        vec3 h = brdf_sample_half(m, n, brdf_tangent(m, n), u1, u2);
         return reflect(-v, h);
     }
     return local_to_world(n, sqrt(1.0 - u1), 2.0 * PI * u2);  // cosine-weighted

@@ -680,6 +680,57 @@ pub mod cpu {
         };
         (diffuse, ratio)
     }
+
+    /// Eq. 9 visibility ratio of one unit specular lobe (axis, λ) at (p, n): visible over
+    /// upper-hemisphere integral of its product with the cosine lobe; 1 without blockers. Twin of
+    /// `isg_lobe_visibility_ratio` (shaders-glsl/shade/isg/specular.glsl).
+    pub fn lobe_visibility_ratio(
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        lambda: f64,
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        lut: &IsgLut,
+    ) -> f64 {
+        if spheres.is_empty() {
+            return 1.0;
+        }
+        let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
+        let a = axis.normalize();
+        let prod = sg_product_log(&Sg::new([a.x, a.y, a.z], lambda, 1.0), &cosine);
+        let (hor, occ) = occlusion(p, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+        let full = 2.0 * PI * sphere_unit(prod.lambda);
+        let above = full - isg_normalization(prod.lambda) * hor;
+        if above > 0.0 {
+            ((full - isg_normalization(prod.lambda) * occ) / above).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+
+    /// The ISG specular term of the lobed BRDFs (Cook-Torrance, Ashikhmin–Shirley): Σ_j w_j ∫ L G_j ·
+    /// ratio_j, clamped at 0, with `integral(axis, λ)` the lobe's unshadowed lighting integral (the
+    /// prefiltered maps on the GPU). Twin of `isg_specular_lobes`.
+    pub fn specular(
+        position: DVec3,
+        n: DVec3,
+        lobes: &[engine_math::brdf::SpecularLobe],
+        o: &IsgOptions,
+        spheres: &[Sphere],
+        lut: &IsgLut,
+        integral: impl Fn([f64; 3], f64) -> [f64; 3],
+    ) -> [f64; 3] {
+        let mut sum = [0.0; 3];
+        for l in lobes.iter().filter(|l| l.weight.iter().any(|&w| w != 0.0)) {
+            let ratio = lobe_visibility_ratio(position, n, DVec3::from_array(l.axis), l.lambda, o, spheres, lut);
+            let i = integral(l.axis, l.lambda);
+            for c in 0..3 {
+                sum[c] += l.weight[c] * i[c] * ratio;
+            }
+        }
+        sum.map(|x| x.max(0.0))
+    }
 }
 
 #[cfg(test)]

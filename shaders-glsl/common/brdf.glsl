@@ -1,0 +1,206 @@
+// Specular BRDF models of the material (Blinn-Phong, Cook-Torrance, Ashikhmin-Shirley): the exact
+// f_s, their sampling densities, and the SG lobes per point (ISG Eq. 7–10, Wang et al. 2009).
+// Twin: engine::math::brdf (formulas and conventions documented there).
+#ifndef BRDF_GLSL
+#define BRDF_GLSL
+#include "scene.glsl"
+#include "frame.glsl"
+
+#define BRDF_BLINN_PHONG 0
+#define BRDF_CT_BECKMANN 1
+#define BRDF_CT_GGX 2
+#define BRDF_ASHIKHMIN_SHIRLEY 3
+#define BRDF_MAX_LOBES 7
+const float BRDF_MIN_NDV = 1e-3;
+
+int brdf_kind(Material m) {
+    return int(m.diffuse.w + 0.5);
+}
+
+bool brdf_has_specular(Material m) {
+    return any(notEqual(m.specular.rgb, vec3(0.0)));
+}
+
+// Schlick's Fresnel, F0 = k_s.
+vec3 brdf_schlick(vec3 ks, float cos_vh) {
+    float x = 1.0 - clamp(cos_vh, 0.0, 1.0);
+    float x2 = x * x;
+    return ks + (1.0 - ks) * (x2 * x2 * x);
+}
+
+// Beckmann or GGX D(cos θ_h) for width α (twin: engine::math::sg::Ndf::eval).
+float brdf_ndf(bool ggx, float c, float alpha) {
+    if (c <= 0.0) return 0.0;
+    float a2 = alpha * alpha;
+    float c2 = c * c;
+    if (ggx) {
+        float d = (a2 - 1.0) * c2 + 1.0;
+        return a2 / (PI * d * d);
+    }
+    return exp((c2 - 1.0) / (c2 * a2)) / (PI * a2 * c2 * c2);
+}
+
+// Smith G1 (twin: engine::math::brdf::smith_g1).
+float brdf_smith_g1(bool ggx, float alpha, float c) {
+    if (c <= 0.0) return 0.0;
+    c = min(c, 1.0);
+    float s2 = max(1.0 - c * c, 0.0);
+    if (ggx) return 2.0 * c / (c + sqrt(c * c + alpha * alpha * s2));
+    float s = sqrt(s2);
+    if (alpha * s <= 0.0) return 1.0;
+    float a = c / (alpha * s);
+    return a >= 1.6 ? 1.0 : (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+}
+
+// ln(n·h)/s2, s2 = 1 − (n·h)² (twin: ln_cos_over_sin2).
+float brdf_ln_cos_over_sin2(float nh, float s2) {
+    return s2 < 1e-3 ? -0.5 * (1.0 + s2 * (0.5 + s2 / 3.0)) : log(nh) / s2;
+}
+
+// Ashikhmin-Shirley (n·h)^{e(h)}, x = h·t, y = h·b.
+float brdf_as_power(float nu, float nv, float x, float y, float nh) {
+    if (nh <= 0.0) return 0.0;
+    return exp((nu * x * x + nv * y * y) * brdf_ln_cos_over_sin2(nh, x * x + y * y));
+}
+
+// The tangent at a point: the material's direction projected on the tangent plane of n
+// (twin: tangent_from_direction).
+vec3 brdf_tangent(Material m, vec3 n) {
+    vec3 d = m.tangent.xyz;
+    vec3 p = d - dot(d, n) * n;
+    float l2 = dot(p, p);
+    if (l2 > 1e-8 * max(dot(d, d), 1e-30)) return p * inversesqrt(l2);
+    vec3 t, b;
+    orthonormal_basis(n, t, b);
+    return t;
+}
+
+// Exact specular f_s(l, v) without the cosine (twin: specular_brdf).
+vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
+    float nl = dot(n, l);
+    float nv = dot(n, v);
+    if (nl <= 0.0 || nv <= 0.0 || !brdf_has_specular(m)) return vec3(0.0);
+    vec3 hv = l + v;
+    float len = length(hv);
+    if (len <= 0.0) return vec3(0.0);
+    vec3 h = hv / len;
+    float nh = max(dot(n, h), 0.0);
+    float vh = max(dot(v, h), 0.0);
+    vec3 ks = m.specular.rgb;
+    int kind = brdf_kind(m);
+    if (kind == BRDF_BLINN_PHONG) {
+        float s = m.specular.w;
+        return ks * ((s + 8.0) / (8.0 * PI)) * pow(nh, s);
+    }
+    if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) {
+        bool ggx = kind == BRDF_CT_GGX;
+        float alpha = m.brdf.x;
+        float d = brdf_ndf(ggx, nh, alpha);
+        float g = brdf_smith_g1(ggx, alpha, nv) * brdf_smith_g1(ggx, alpha, nl);
+        return brdf_schlick(ks, vh) * (d * g / (4.0 * nl * nv));
+    }
+    if (vh <= 0.0) return vec3(0.0);
+    vec3 b = cross(n, t);
+    float p = brdf_as_power(m.brdf.x, m.brdf.y, dot(h, t), dot(h, b), nh);
+    float c = sqrt((m.brdf.x + 1.0) * (m.brdf.y + 1.0)) / (8.0 * PI);
+    return brdf_schlick(ks, vh) * (c * p / max(vh * max(nl, nv), 1e-12));
+}
+
+// Density over half vectors of the specular sampling (per solid angle of h):
+// Blinn-Phong (s+1)/(2π)(n·h)^s; Cook-Torrance D(h)(n·h); Ashikhmin-Shirley √((n_u+1)(n_v+1))/(2π)(n·h)^{e}.
+float brdf_half_pdf(Material m, vec3 n, vec3 t, vec3 h) {
+    float nh = dot(n, h);
+    if (nh <= 0.0) return 0.0;
+    int kind = brdf_kind(m);
+    if (kind == BRDF_BLINN_PHONG) {
+        float s = m.specular.w;
+        return (s + 1.0) / (2.0 * PI) * pow(nh, s);
+    }
+    if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) return brdf_ndf(kind == BRDF_CT_GGX, nh, m.brdf.x) * nh;
+    vec3 b = cross(n, t);
+    float nu = m.brdf.x, nv = m.brdf.y;
+    return sqrt((nu + 1.0) * (nv + 1.0)) / (2.0 * PI) * brdf_as_power(nu, nv, dot(h, t), dot(h, b), nh);
+}
+
+// A half vector distributed by brdf_half_pdf, from two uniforms.
+vec3 brdf_sample_half(Material m, vec3 n, vec3 t, float u1, float u2) {
+    int kind = brdf_kind(m);
+    vec3 b = cross(n, t);
+    float cos_h, phi;
+    if (kind == BRDF_BLINN_PHONG) {
+        cos_h = pow(1.0 - u1, 1.0 / (m.specular.w + 1.0));
+        phi = 2.0 * PI * u2;
+    } else if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) {
+        float a2 = m.brdf.x * m.brdf.x;
+        // tan²θ: Beckmann −α² ln(1 − u), GGX α² u/(1 − u); cos θ = 1/√(1 + tan²θ).
+        float tan2 = kind == BRDF_CT_GGX ? a2 * u1 / max(1.0 - u1, 1e-30) : -a2 * log(max(1.0 - u1, 1e-30));
+        cos_h = inversesqrt(1.0 + tan2);
+        phi = 2.0 * PI * u2;
+    } else {
+        // Ashikhmin & Shirley 2000, Eq. 9 per quadrant.
+        float nu = m.brdf.x, nv = m.brdf.y;
+        float q = floor(4.0 * u2);
+        float u = 4.0 * u2 - q;
+        float p0 = atan(sqrt((nu + 1.0) / (nv + 1.0)) * tan(0.5 * PI * min(u, 0.999999)));
+        phi = q == 0.0 ? p0 : (q == 1.0 ? PI - p0 : (q == 2.0 ? PI + p0 : 2.0 * PI - p0));
+        float cp = cos(phi), sp = sin(phi);
+        cos_h = pow(1.0 - u1, 1.0 / (nu * cp * cp + nv * sp * sp + 1.0));
+    }
+    float sin_h = sqrt(max(0.0, 1.0 - cos_h * cos_h));
+    return normalize(sin_h * cos(phi) * t + sin_h * sin(phi) * b + cos_h * n);
+}
+
+// One specular lobe at a point: unit-amplitude SG (axis, λ) and the RGB weight of its integral.
+struct SpecLobe {
+    vec3 axis;
+    float lambda;
+    vec3 weight;
+};
+
+// The specular lobes at a point (twin: specular_lobes); returns their count (0 where k_s = 0).
+int brdf_specular_lobes(Material m, vec3 n, vec3 v, out SpecLobe lobes[BRDF_MAX_LOBES]) {
+    if (!brdf_has_specular(m)) return 0;
+    vec3 ks = m.specular.rgb;
+    float nv = max(dot(n, v), BRDF_MIN_NDV);
+    vec3 r = reflect(-v, n);
+    int kind = brdf_kind(m);
+    if (kind == BRDF_BLINN_PHONG) {
+        float s = m.specular.w;
+        lobes[0].axis = r;
+        lobes[0].lambda = s / (4.0 * nv);
+        lobes[0].weight = ks * ((s + 8.0) / (8.0 * PI)) * max(dot(n, r), 0.0);
+        return 1;
+    }
+    if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) {
+        bool ggx = kind == BRDF_CT_GGX;
+        r = normalize(r);
+        float nl = dot(n, r);
+        float alpha = m.brdf.x;
+        float g = brdf_smith_g1(ggx, alpha, nv) * brdf_smith_g1(ggx, alpha, nl);
+        lobes[0].axis = r;
+        lobes[0].lambda = m.brdf.y / (4.0 * nv);
+        lobes[0].weight = nl > 0.0 ? brdf_schlick(ks, nv) * (m.brdf.z * g / (4.0 * nv)) : vec3(0.0);
+        return 1;
+    }
+    vec3 t = brdf_tangent(m, n);
+    vec3 b = cross(n, t);
+    vec3 wide = m.tangent.w > 0.5 ? b : t;
+    float nu = m.brdf.x, nvx = m.brdf.y;
+    float c = sqrt((nu + 1.0) * (nvx + 1.0)) / (8.0 * PI);
+    for (int k = -3; k <= 3; ++k) {
+        float ang = float(k) * m.brdf.w;
+        vec3 h = cos(ang) * n + sin(ang) * wide;
+        float vh = dot(v, h);
+        vec3 l = 2.0 * vh * h - v;
+        float nl = dot(n, l);
+        int j = k + 3;
+        lobes[j].axis = l;
+        lobes[j].lambda = m.brdf.z / (4.0 * max(abs(vh), 1e-6));
+        float mu = m.lobes[abs(k)];
+        lobes[j].weight =
+            (vh > 0.0 && nl > 0.0) ? brdf_schlick(ks, vh) * (mu * c * nl / max(vh * max(nl, nv), 1e-12)) : vec3(0.0);
+    }
+    return 7;
+}
+
+#endif // BRDF_GLSL
