@@ -269,6 +269,33 @@ fn map_diffuse_matches_the_f64_twin_with_thin_triangles() {
     gpu.shutdown().expect("clean teardown");
 }
 
+// The lobed BRDFs' specular (Cook-Torrance, Ashikhmin–Shirley: shade/isg/specular.glsl, a visibility
+// ratio per lobe) sees thin triangles with no sphere in the scene: a purely specular plane under the
+// sheet is darkened against `none` (whose lobes are the same, unshadowed), never brightened.
+#[test]
+fn lobed_specular_sees_thin_triangles() {
+    let gpu = engine_tests::gpu();
+    let sky = demos::sphere_scene(2).environment;
+    for brdf in ["cook-torrance:roughness=0.3,ks=0.6,kd=0", "ashikhmin-shirley:nu=50,nv=10,ks=0.6,kd=0"] {
+        let mut scene = demos::sheet_over_plane(sky.clone(), 0.7, 0.5, 0.7, 8);
+        scene.materials[0].apply_brdf_spec(brdf).expect("brdf");
+        let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
+        let (img, _) = engine_tests::render(&gpu, &scene, settings("isg"));
+        assert_finite(&img, brdf);
+        let mut darker = 0;
+        for i in 0..(W * H) as usize {
+            let (a, b) = (rgb(&img, i), rgb(&none, i));
+            for ch in 0..3 {
+                assert!(a[ch] >= 0.0 && a[ch] <= b[ch] * 1.0001 + 1e-6, "{brdf}: pixel {i} {a:?} vs {b:?}");
+            }
+            darker += (a[1] < 0.8 * b[1]) as usize;
+        }
+        eprintln!("{brdf}: {darker} pixels darkened by more than 20 %");
+        assert!(darker > 100, "{brdf}: only {darker} pixels darkened: the sheet does not shadow the specular lobes");
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
 // Hard cases on the GPU: zero-area triangles (bypassing the mesh validation), an edge-on sheet (its
 // plane through the camera-side receivers), a sheet straddling the ground's tangent plane (cutting
 // through the plane), per pixel and per vertex: finite, never brighter than `none`, shadows present.

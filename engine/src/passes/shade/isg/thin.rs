@@ -256,10 +256,8 @@ mod tests {
             // A sheet straddling the tangent plane, a sheet around the receiver (covers more than a
             // hemisphere from below), one wholly below it, and a huge one: finite, within [horizon, whole].
             let straddle = [[DVec3::new(0.5, -1.0, -1.0), DVec3::new(0.5, 1.0, -1.0), DVec3::new(0.5, 0.0, 1.0)]];
-            // (It must reach the lowest patch centre above the horizon, 0.14° above it at P = 32: beyond
-            // 0.5 / tan 0.14° ≈ 205, in triangles small enough (edges < 0.5 / PLANE_EPS) that the rule
-            // keeps them.)
-            let around = grid_square(0.5, 1000.0, 20);
+            let around =
+                [[DVec3::new(-100.0, 0.5, -100.0), DVec3::new(100.0, 0.5, -100.0), DVec3::new(0.0, 0.5, 200.0)]];
             let below = square(-1.0, 3.0);
             let huge = square(1e-2, 5.0);
             let g = grid(n, lambda, &o);
