@@ -3,6 +3,7 @@
 use engine::gpu::Gpu;
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
+use glam::DVec3;
 
 /// A GPU with the validation layer required (any validation error fails `shutdown`).
 pub fn gpu() -> Gpu {
@@ -17,6 +18,40 @@ pub fn render(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, 
     let ldr = r.read_ldr(gpu).expect("readback");
     r.destroy(gpu);
     (hdr, ldr)
+}
+
+/// A covered G-buffer pixel: (world position, unit normal, material index); None where nothing was drawn.
+pub type Receiver = Option<(DVec3, DVec3, usize)>;
+
+/// Render `scene` once and read back the radiance and the G-buffer's receivers (per pixel).
+pub fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, Vec<Receiver>) {
+    let pixels = (settings.width * settings.height) as usize;
+    let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
+    r.render(gpu).expect("frame");
+    let hdr = r.read_radiance(gpu).expect("radiance");
+    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
+    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
+    r.destroy(gpu);
+    let g = (0..pixels)
+        .map(|i| {
+            let (p, n) = (&pos[4 * i..4 * i + 4], &nrm[4 * i..4 * i + 4]);
+            (p[3] >= 0.5).then(|| {
+                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
+            })
+        })
+        .collect();
+    (hdr, g)
+}
+
+/// RGB of pixel `i` of a linear RGBA32F image, as f64.
+pub fn rgb(hdr: &[f32], i: usize) -> [f64; 3] {
+    [hdr[4 * i] as f64, hdr[4 * i + 1] as f64, hdr[4 * i + 2] as f64]
+}
+
+/// Every value of the image is finite.
+pub fn assert_finite(hdr: &[f32], what: &str) {
+    assert!(hdr.iter().all(|v| v.is_finite()), "{what}: non-finite pixel value");
 }
 
 /// Relative RMSE over pixels where `mask` holds: sqrt(Σ|a−b|²) / sqrt(Σ|b|²) on RGB.

@@ -5,7 +5,6 @@
 //! (engine::math::brdf, isg::cpu::specular), and hard cases (grazing views, extreme exponents).
 
 use engine::blockers::Sphere;
-use engine::gpu::Gpu;
 use engine::math::brdf::{self, HalfVectorFit};
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
@@ -60,42 +59,13 @@ fn settings(technique: &str) -> RenderSettings {
     RenderSettings { width: W, height: H, technique: technique.into(), ..Default::default() }
 }
 
+use engine_tests::{assert_finite, render_with_gbuffer, rgb};
+
 fn with_brdf(mut scene: Scene, material: usize, spec: &str, kd: f32) -> Scene {
     let m = &mut scene.materials[material];
     m.apply_brdf_spec(spec).expect("brdf spec");
     m.diffuse = Vec3::splat(kd);
     scene
-}
-
-/// Per pixel: Some((position, normal, material)) where the G-buffer is covered.
-type GBufferPixels = Vec<Option<(DVec3, DVec3, usize)>>;
-
-fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, technique: &str) -> (Vec<f32>, GBufferPixels) {
-    let mut r = Renderer::new(gpu, scene, settings(technique)).expect("renderer");
-    r.render(gpu).expect("frame");
-    let hdr = r.read_radiance(gpu).expect("radiance");
-    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
-    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
-    r.destroy(gpu);
-    let g = (0..(W * H) as usize)
-        .map(|i| {
-            let p = &pos[4 * i..4 * i + 4];
-            let n = &nrm[4 * i..4 * i + 4];
-            (p[3] >= 0.5).then(|| {
-                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
-            })
-        })
-        .collect();
-    (hdr, g)
-}
-
-fn rgb(hdr: &[f32], i: usize) -> [f64; 3] {
-    [hdr[4 * i] as f64, hdr[4 * i + 1] as f64, hdr[4 * i + 2] as f64]
-}
-
-fn assert_finite(hdr: &[f32], what: &str) {
-    assert!(hdr.iter().all(|v| v.is_finite()), "{what}: non-finite pixel");
 }
 
 /// The material as the GPU sees it (f32 fit parameters), as the f64 model and fit the twins use.
@@ -122,7 +92,7 @@ fn gpu_view(m: &Material) -> (brdf::SpecularModel, HalfVectorFit, [f64; 3], [f64
 fn none_matches_unshadowed_reference() {
     let gpu = engine_tests::gpu();
     let scene = four_spheres(None, 0.2);
-    let (none, g) = render_with_gbuffer(&gpu, &scene, "none");
+    let (none, g) = render_with_gbuffer(&gpu, &scene, settings("none"));
     assert_finite(&none, "none");
     let mut r = Renderer::new(&gpu, &scene, settings("reference")).expect("renderer");
     let opts =
@@ -271,7 +241,7 @@ fn none_matches_the_f64_twin() {
     let gpu = engine_tests::gpu();
     let c = [0.8f32, 1.0, 1.3];
     let scene = four_spheres(Some(LatLongMap::constant(64, 32, c)), 0.3);
-    let (hdr, g) = render_with_gbuffer(&gpu, &scene, "none");
+    let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("none"));
     gpu.shutdown().expect("clean teardown");
     let eye = scene.camera.eye.as_dvec3();
     for (j, spec) in BRDFS.iter().enumerate() {
@@ -313,7 +283,7 @@ fn isg_specular_matches_the_f64_twin() {
     for spec in &BRDFS[1..] {
         let base = demos::sphere_over_plane(LatLongMap::constant(64, 32, [c; 3]), 0.0, centre, radius);
         let scene = with_brdf(base, 0, &spec.replace("ks=0.5", "ks=0.9"), 0.0);
-        let (hdr, g) = render_with_gbuffer(&gpu, &scene, "isg:threshold=0");
+        let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("isg:threshold=0"));
         assert_finite(&hdr, spec);
         let (model, fit, ks, dir) = gpu_view(&scene.materials[0]);
         let eye = scene.camera.eye.as_dvec3();

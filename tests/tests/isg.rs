@@ -3,49 +3,19 @@
 //! hard cases (hundreds of overlapping spheres).
 
 use engine::blockers::Sphere;
-use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
 use engine::passes::shade::isg::{cpu, Diffuse, Evaluator, IsgOptions};
-use engine::renderer::{RenderSettings, Renderer};
-use engine::scene::Scene;
+use engine::renderer::RenderSettings;
 use glam::{DVec3, Vec3};
 
 const W: u32 = 48;
 const H: u32 = 36;
 
+use engine_tests::{assert_finite, render_with_gbuffer, rgb};
+
 fn settings(technique: &str) -> RenderSettings {
     RenderSettings { width: W, height: H, technique: technique.into(), ..Default::default() }
-}
-
-/// Render and also read back the G-buffer: (radiance, per pixel Some((position, normal, material))).
-#[allow(clippy::type_complexity)]
-fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, technique: &str) -> (Vec<f32>, Vec<Option<(DVec3, DVec3, usize)>>) {
-    let mut r = Renderer::new(gpu, scene, settings(technique)).expect("renderer");
-    r.render(gpu).expect("frame");
-    let hdr = r.read_radiance(gpu).expect("radiance");
-    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
-    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
-    r.destroy(gpu);
-    let g = (0..(W * H) as usize)
-        .map(|i| {
-            let p = &pos[4 * i..4 * i + 4];
-            let n = &nrm[4 * i..4 * i + 4];
-            (p[3] >= 0.5).then(|| {
-                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
-            })
-        })
-        .collect();
-    (hdr, g)
-}
-
-fn rgb(hdr: &[f32], i: usize) -> [f64; 3] {
-    [hdr[4 * i] as f64, hdr[4 * i + 1] as f64, hdr[4 * i + 2] as f64]
-}
-
-fn assert_finite(hdr: &[f32], what: &str) {
-    assert!(hdr.iter().all(|v| v.is_finite()), "{what}: non-finite pixel");
 }
 
 // Without blockers nothing is occluded: `diffuse=map` (the default) and `diffuse=ratio` are `none` up
@@ -96,7 +66,7 @@ fn one_sphere_blocker_constant_environment() {
     let (c, r) = (Vec3::new(0.0, 0.8, 0.0), 0.5f32);
     let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
     for (spec, rmse_bound, max_bound) in [("isg", 0.005, 0.02), ("isg:diffuse=ratio,patches=16", 0.03, 0.10)] {
-        let (hdr, g) = render_with_gbuffer(&gpu, &scene, spec);
+        let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings(spec));
         assert_finite(&hdr, spec);
         let rho_l = (albedo * l) as f64;
         let (mut sum2, mut ref2, mut worst, mut count, mut shadowed) = (0.0, 0.0, 0.0f64, 0, 0);
@@ -148,7 +118,7 @@ fn gpu_matches_the_f64_twin() {
         ("isg:diffuse=sg,threshold=0", Evaluator::Table),
         ("isg:diffuse=sg,threshold=0,evaluator=paper", Evaluator::Paper),
     ] {
-        let (hdr, g) = render_with_gbuffer(&gpu, &scene, spec);
+        let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings(spec));
         assert_finite(&hdr, spec);
         let o = IsgOptions { evaluator, diffuse: Diffuse::Sg, node_threshold: 0.0, ..IsgOptions::default() };
         let mut errs = Vec::new();
@@ -192,7 +162,7 @@ fn map_diffuse_matches_the_f64_twin() {
         let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
         for side in [8usize, 32] {
             let spec = format!("isg:threshold=0,patches={side}");
-            let (hdr, g) = render_with_gbuffer(&gpu, &scene, &spec);
+            let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings(&spec));
             assert_finite(&hdr, &spec);
             let o = IsgOptions { side, node_threshold: 0.0, ..IsgOptions::default() };
             let (mut errs, mut occluded) = (Vec::new(), 0);

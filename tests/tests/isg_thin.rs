@@ -5,7 +5,6 @@
 //! sphere-proxy reference (which traces the thin triangles too).
 
 use engine::blockers::Sphere;
-use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
 use engine::passes::shade::isg::thin::parallel_rectangle_form_factor;
@@ -23,37 +22,7 @@ fn settings(technique: &str) -> RenderSettings {
     RenderSettings { width: W, height: H, technique: technique.into(), ..Default::default() }
 }
 
-type Receiver = Option<(DVec3, DVec3, usize)>;
-
-/// Render and read back the G-buffer: (radiance, per pixel Some((position, normal, material))).
-fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, s: RenderSettings) -> (Vec<f32>, Vec<Receiver>) {
-    let (w, h) = (s.width, s.height);
-    let mut r = Renderer::new(gpu, scene, s).expect("renderer");
-    r.render(gpu).expect("frame");
-    let hdr = r.read_radiance(gpu).expect("radiance");
-    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
-    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
-    r.destroy(gpu);
-    let g = (0..(w * h) as usize)
-        .map(|i| {
-            let p = &pos[4 * i..4 * i + 4];
-            let n = &nrm[4 * i..4 * i + 4];
-            (p[3] >= 0.5).then(|| {
-                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
-            })
-        })
-        .collect();
-    (hdr, g)
-}
-
-fn rgb(hdr: &[f32], i: usize) -> [f64; 3] {
-    [hdr[4 * i] as f64, hdr[4 * i + 1] as f64, hdr[4 * i + 2] as f64]
-}
-
-fn assert_finite(hdr: &[f32], what: &str) {
-    assert!(hdr.iter().all(|v| v.is_finite()), "{what}: non-finite value");
-}
+use engine_tests::{assert_finite, render_with_gbuffer, rgb};
 
 /// World-space triangles of the thin meshes of `scene` (the instances' transforms applied in f32 as the
 /// skin pass does; identity transforms and translations keep the vertices' f32 values).
