@@ -34,6 +34,31 @@ pub fn texel_solid_angle(row: usize, width: usize, height: usize) -> f64 {
     (2.0 * PI / width as f64) * (t0.cos() - t1.cos())
 }
 
+/// Bilinear interpolation of a `width` × `rows` texel grid at continuous texel coordinates (x, y) (texel
+/// centres at integers), wrapping in x and clamping in y: a GPU sampler with REPEAT in u and CLAMP_TO_EDGE in v.
+pub(crate) fn bilinear_wrap_u(
+    texel: impl Fn(usize, usize) -> [f32; 3],
+    width: usize,
+    rows: usize,
+    x: f64,
+    y: f64,
+) -> [f64; 3] {
+    let y = y.clamp(0.0, (rows - 1) as f64);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let w = width as i64;
+    let c0 = (x0 as i64).rem_euclid(w) as usize;
+    let c1 = (x0 as i64 + 1).rem_euclid(w) as usize;
+    let r0 = y0 as usize;
+    let r1 = (r0 + 1).min(rows - 1);
+    let (t00, t10, t01, t11) = (texel(c0, r0), texel(c1, r0), texel(c0, r1), texel(c1, r1));
+    [0, 1, 2].map(|k| {
+        let a = t00[k] as f64 * (1.0 - fx) + t10[k] as f64 * fx;
+        let b = t01[k] as f64 * (1.0 - fx) + t11[k] as f64 * fx;
+        a * (1.0 - fy) + b * fy
+    })
+}
+
 /// An RGB lat-long radiance map in linear units, row-major, row 0 at the zenith.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LatLongMap {
@@ -69,23 +94,8 @@ impl LatLongMap {
     /// REPEAT in u and CLAMP_TO_EDGE in v.
     pub fn lookup_bilinear(&self, d: [f64; 3]) -> [f64; 3] {
         let (u, v) = latlong_uv(d);
-        let x = u * self.width as f64 - 0.5;
-        let y = (v * self.height as f64 - 0.5).clamp(0.0, (self.height - 1) as f64);
-        let x0 = x.floor();
-        let y0 = y.floor();
-        let (fx, fy) = (x - x0, y - y0);
-        let w = self.width as i64;
-        let c0 = (x0 as i64).rem_euclid(w) as usize;
-        let c1 = (x0 as i64 + 1).rem_euclid(w) as usize;
-        let r0 = y0 as usize;
-        let r1 = (r0 + 1).min(self.height - 1);
-        let mut out = [0.0; 3];
-        for (k, o) in out.iter_mut().enumerate() {
-            let a = self.texel(c0, r0)[k] as f64 * (1.0 - fx) + self.texel(c1, r0)[k] as f64 * fx;
-            let b = self.texel(c0, r1)[k] as f64 * (1.0 - fx) + self.texel(c1, r1)[k] as f64 * fx;
-            *o = a * (1.0 - fy) + b * fy;
-        }
-        out
+        let y = v * self.height as f64 - 0.5;
+        bilinear_wrap_u(|c, r| self.texel(c, r), self.width, self.height, u * self.width as f64 - 0.5, y)
     }
 
     /// Downsample by an integer box filter weighted by texel solid angle (keeps the integral).

@@ -197,21 +197,9 @@ impl IrradianceGrid {
     /// coordinate v' = (θ/π (rows − 1) + ½)/rows puts the pole rows' centres at θ = 0 and π.
     pub fn lookup_bilinear(&self, d: [f64; 3]) -> [f64; 3] {
         let (u, v) = crate::envmap::latlong_uv(d);
-        let x = u * self.width as f64 - 0.5;
-        let y = (v * (self.rows - 1) as f64).clamp(0.0, (self.rows - 1) as f64);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let w = self.width as i64;
-        let c0 = (x0 as i64).rem_euclid(w) as usize;
-        let c1 = (x0 as i64 + 1).rem_euclid(w) as usize;
-        let r0 = y0 as usize;
-        let r1 = (r0 + 1).min(self.rows - 1);
-        let t = |c: usize, r: usize, k: usize| self.texels[r * self.width + c][k] as f64;
-        [0, 1, 2].map(|k| {
-            let a = t(c0, r0, k) * (1.0 - fx) + t(c1, r0, k) * fx;
-            let b = t(c0, r1, k) * (1.0 - fx) + t(c1, r1, k) * fx;
-            a * (1.0 - fy) + b * fy
-        })
+        let texel = |c: usize, r: usize| self.texels[r * self.width + c];
+        let (x, y) = (u * self.width as f64 - 0.5, v * (self.rows - 1) as f64);
+        crate::envmap::bilinear_wrap_u(texel, self.width, self.rows, x, y)
     }
 }
 

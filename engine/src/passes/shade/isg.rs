@@ -494,6 +494,37 @@ pub mod cpu {
         sum.max(0.0)
     }
 
+    /// Marks grid `g`'s patches occluded, seen from receiver p (unit normal n), by the spheres in the
+    /// grid's cone (after the self-shadowing rule) and by the thin triangles; whether any was marked.
+    pub fn mark_blockers(
+        mask: &mut [Vec<bool>],
+        g: &Grid,
+        p: DVec3,
+        n: DVec3,
+        spheres: &[Sphere],
+        thin: &[[DVec3; 3]],
+    ) -> bool {
+        let cone = Cone::new(p, g.z, g.cone);
+        let mut marked = false;
+        for s in spheres {
+            if !cone_intersects_sphere(&cone, s) {
+                continue;
+            }
+            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
+            if b.radius <= 0.0 {
+                continue;
+            }
+            let d = b.center - p;
+            let dist = d.length();
+            if dist <= 0.0 {
+                continue;
+            }
+            mark_cap(mask, g, d / dist, subtended_half_angle(p, &b));
+            marked = true;
+        }
+        super::thin::mark_thin(mask, g, p, n, thin) | marked
+    }
+
     /// Occluded parts of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units: (by the
     /// receiver's tangent plane alone — V = 0 below it —, by the plane and the spheres together).
     pub fn occlusion(
@@ -527,25 +558,7 @@ pub mod cpu {
             mark_cap(&mut mask, &g, -n, FRAC_PI_2);
             horizon = occluded_sum(&mask, &g, lambda, o.evaluator, lut);
         }
-        let cone = Cone::new(p, axis, g.cone);
-        let mut marked = false;
-        for s in spheres {
-            if !cone_intersects_sphere(&cone, s) {
-                continue;
-            }
-            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
-            if b.radius <= 0.0 {
-                continue;
-            }
-            let d = b.center - p;
-            let dist = d.length();
-            if dist <= 0.0 {
-                continue;
-            }
-            mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
-            marked = true;
-        }
-        marked |= super::thin::mark_thin(&mut mask, &g, p, n, thin);
+        let marked = mark_blockers(&mut mask, &g, p, n, spheres, thin);
         (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
     }
 
@@ -567,23 +580,7 @@ pub mod cpu {
     ) -> Vec<(DVec3, f64)> {
         let g = grid(n, 0.0, o);
         let mut mask = vec![vec![false; g.side]; g.side];
-        let cone = Cone::new(p, n, g.cone);
-        for s in spheres {
-            if !cone_intersects_sphere(&cone, s) {
-                continue;
-            }
-            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
-            if b.radius <= 0.0 {
-                continue;
-            }
-            let d = b.center - p;
-            let dist = d.length();
-            if dist <= 0.0 {
-                continue;
-            }
-            mark_cap(&mut mask, &g, d / dist, subtended_half_angle(p, &b));
-        }
-        super::thin::mark_thin(&mut mask, &g, p, n, thin);
+        mark_blockers(&mut mask, &g, p, n, spheres, thin);
         let mut out = Vec::new();
         for (i, row) in mask.iter().enumerate() {
             let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
