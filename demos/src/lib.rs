@@ -21,6 +21,14 @@ pub fn assets_dir() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets"))
 }
 
+/// The binaries' `main`: print the error with its causes as `error: …` and exit with status 1.
+pub fn exit_on_error(result: anyhow::Result<()>) {
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
 /// Scenes `--scene` accepts.
 pub const SCENES: &[&str] = &["bunny", "furnace", "sphere", "arm", "sheet"];
 

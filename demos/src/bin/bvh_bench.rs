@@ -29,10 +29,7 @@ struct Args {
 }
 
 fn main() {
-    if let Err(e) = run(Args::parse()) {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
-    }
+    demos::exit_on_error(run(Args::parse()));
 }
 
 fn run(args: Args) -> anyhow::Result<()> {

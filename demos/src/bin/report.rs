@@ -24,10 +24,7 @@ struct Args {
 }
 
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
-    }
+    demos::exit_on_error(run());
 }
 
 fn run() -> Result<()> {

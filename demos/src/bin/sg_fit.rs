@@ -26,10 +26,7 @@ const ROWS: [usize; 8] = [1, 2, 4, 8, 10, 16, 20, 32];
 const REFINE_ROUNDS: usize = engine::passes::shade::isg::REFINE_ROUNDS;
 
 fn main() {
-    if let Err(e) = run() {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
-    }
+    demos::exit_on_error(run());
 }
 
 fn run() -> anyhow::Result<()> {
