@@ -40,9 +40,9 @@ pub fn resample(src: &LatLongMap, width: usize, height: usize) -> LatLongMap {
     LatLongMap { width, height, texels }
 }
 
-/// Convolve `src` with a kernel k(cos ψ) whose support is ψ ≤ `support` (radians), normalizing by
-/// the kernel's discrete sum when `normalize`, else returning Σ L k dω. Output has src's size.
-fn convolve(src: &LatLongMap, support: f64, normalize: bool, kernel: impl Fn(f64) -> f64 + Sync) -> LatLongMap {
+/// Convolve `src` with a kernel k(cos ψ) whose support is ψ ≤ `support` (radians), normalized by the
+/// kernel's discrete sum. Output has src's size.
+fn convolve(src: &LatLongMap, support: f64, kernel: impl Fn(f64) -> f64 + Sync) -> LatLongMap {
     let (w, h) = (src.width, src.height);
     let dirs: Vec<[f64; 3]> = (0..h * w).map(|i| src.texel_direction(i % w, i / w)).collect();
     let solid: Vec<f64> = (0..h).map(|r| texel_solid_angle(r, w, h)).collect();
@@ -104,7 +104,7 @@ fn convolve(src: &LatLongMap, support: f64, normalize: bool, kernel: impl Fn(f64
                                     wsum += wk;
                                 }
                             }
-                            let norm = if normalize && wsum > 0.0 { 1.0 / wsum } else { 1.0 };
+                            let norm = if wsum > 0.0 { 1.0 / wsum } else { 1.0 };
                             line.push(acc.map(|a| (a * norm) as f32));
                         }
                         out.push(line);
@@ -116,14 +116,6 @@ fn convolve(src: &LatLongMap, support: f64, normalize: bool, kernel: impl Fn(f64
         handles.into_iter().flat_map(|h| h.join().unwrap_or_default()).collect()
     });
     LatLongMap { width: w, height: h, texels: rows_out.into_iter().flatten().collect() }
-}
-
-/// Irradiance E(n) = ∫ L(ω) max(n·ω, 0) dω, as a `width` × `height` lat-long map (computed from
-/// `src` resampled to twice that resolution).
-pub fn irradiance_map(src: &LatLongMap, width: usize, height: usize) -> LatLongMap {
-    let work = resample(src, 2 * width, 2 * height);
-    let full = convolve(&work, PI / 2.0 + PI / (2 * height) as f64, false, |c| c.max(0.0));
-    resample(&full, width, height)
 }
 
 /// Irradiance on a lat-long grid whose rows include both poles: row j at θ_j = π j/(rows − 1),
@@ -141,8 +133,7 @@ pub struct IrradianceGrid {
 }
 
 impl IrradianceGrid {
-    /// E = Σ_texels L max(n·ω, 0) Ω over `src` resampled to 2·width × 2·(rows − 1) (the working
-    /// resolution of [`irradiance_map`]), at every grid direction. Needs width ≥ 1, rows ≥ 2.
+    /// E = Σ_texels L max(n·ω, 0) Ω over `src` resampled to 2·width × 2·(rows − 1) (twice the grid), at every grid direction. Needs width ≥ 1, rows ≥ 2.
     pub fn compute(src: &LatLongMap, width: usize, rows: usize) -> Self {
         assert!(width >= 1 && rows >= 2, "irradiance grid {width}x{rows}");
         let work = resample(src, 2 * width, 2 * (rows - 1));
@@ -216,7 +207,7 @@ pub fn sg_prefiltered_map(src: &LatLongMap, level: usize, width: usize, height: 
     let work = resample(src, 2 * rows, rows);
     // Support: the kernel falls below 1e-6 of its peak.
     let support = (1.0 - 13.8 / lambda).max(-1.0).acos();
-    let conv = convolve(&work, support, true, |c| (lambda * (c - 1.0)).exp());
+    let conv = convolve(&work, support, |c| (lambda * (c - 1.0)).exp());
     resample(&conv, width, height)
 }
 
@@ -226,13 +217,8 @@ mod tests {
 
     #[test]
     fn constant_environment_is_preserved() {
-        // Furnace: a constant map convolves to itself (normalized) and to πL (irradiance).
+        // Furnace: a constant map convolves to itself (normalized).
         let m = LatLongMap::constant(64, 32, [2.0, 1.0, 0.5]);
-        let e = irradiance_map(&m, 16, 8);
-        for t in &e.texels {
-            // Tolerance 2e-3: the clamped cosine's discrete sum on a 32x16 grid vs π.
-            assert!((t[0] as f64 - 2.0 * PI).abs() / (2.0 * PI) < 2e-3, "{t:?}");
-        }
         for level in [0, 4, 8] {
             let p = sg_prefiltered_map(&m, level, 32, 16);
             for t in &p.texels {
@@ -291,33 +277,6 @@ mod tests {
             );
             let got = g.lookup_bilinear(n)[0];
             assert!((got - exact).abs() < 0.015 * (PI / 2.0), "n {n:?}: {got} vs {exact}");
-        }
-    }
-
-    #[test]
-    fn irradiance_of_a_directional_lobe_matches_quadrature() {
-        // Environment: a smooth lobe L(ω) = max(ω·z, 0)^2 around +Z; compare E at several normals
-        // against independent quadrature. Tolerance 1.5 %: bilinear resampling of a 32x16 map.
-        let (w, h) = (128, 64);
-        let texels = (0..w * h)
-            .map(|i| {
-                let d = latlong_direction(((i % w) as f64 + 0.5) / w as f64, ((i / w) as f64 + 0.5) / h as f64);
-                let v = d[2].max(0.0).powi(2) as f32;
-                [v, v, v]
-            })
-            .collect();
-        let m = LatLongMap { width: w, height: h, texels };
-        let e = irradiance_map(&m, 32, 16);
-        for &(u, v) in &[(0.25, 0.5), (0.3, 0.3), (0.0, 0.6), (0.6, 0.4)] {
-            let n = latlong_direction(u, v);
-            let exact = crate::quadrature::integrate_sphere(
-                |d| d[2].max(0.0).powi(2) * (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]).max(0.0),
-                24,
-                8,
-                256,
-            );
-            let got = e.lookup_bilinear(n)[0];
-            assert!((got - exact).abs() < 0.015 * (PI / 2.0), "n={n:?}: {got} vs {exact}");
         }
     }
 }
