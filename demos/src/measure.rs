@@ -229,3 +229,34 @@ pub fn write_heatmap(path: &Path, hdr: &[f32], r: &ReferenceImage, width: u32, h
     metrics::write_error_heatmap(path, hdr, &r.hdr, &r.mask, width, height, scale)?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cached reference reads back bit for bit; a file of another size or kind is refused.
+    #[test]
+    fn reference_cache_round_trips() {
+        let r = ReferenceImage {
+            visibility: Visibility::Spheres,
+            hdr: vec![0.5, f32::MIN_POSITIVE, 3.25, 1.0, 7.0, 0.0, 1e-30, 1.0],
+            ldr: vec![1, 2, 3, 255, 9, 8, 7, 255],
+            mask: vec![true, false],
+            report: ConvergeReport { samples: 4096, frames: 256, relative_stderr: 0.0183, converged: false },
+            ms_per_sample: 53.1,
+            seconds: 188.0,
+        };
+        let dir = std::env::temp_dir().join(format!("refcache-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("r.refimg");
+        r.save(&path).unwrap();
+        let back = ReferenceImage::load(&path, Visibility::Spheres, 2).unwrap();
+        assert_eq!((back.hdr, back.ldr, back.mask), (r.hdr.clone(), r.ldr.clone(), r.mask.clone()));
+        assert_eq!(back.report, r.report);
+        assert_eq!((back.ms_per_sample, back.seconds), (r.ms_per_sample, r.seconds));
+        assert!(ReferenceImage::load(&path, Visibility::Spheres, 3).is_err(), "wrong pixel count accepted");
+        std::fs::write(&path, b"not a cache").unwrap();
+        assert!(ReferenceImage::load(&path, Visibility::Spheres, 2).is_err(), "garbage accepted");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
