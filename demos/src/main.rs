@@ -108,7 +108,7 @@ fn run() -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
-    if let (Some(spp), Some(r)) = (args.spp, engine::passes::shade::reference::reference_mut(&mut renderer)) {
+    if let (Some(spp), Some(r)) = (args.spp, engine::converge::reference_mut(&mut renderer)) {
         let per_frame = spp.clamp(1, 64);
         r.set_options(engine::passes::shade::reference::ReferenceOptions {
             samples_per_frame: per_frame,
@@ -215,7 +215,7 @@ fn render_frames(
     }
     println!("  {:<24} {total:>10.3} ms", "total");
     let per_vertex = renderer.settings.per_vertex;
-    if let Some(r) = engine::passes::shade::reference::reference_mut(renderer) {
+    if let Some(r) = engine::converge::reference_mut(renderer) {
         let stats = r.stats(gpu, per_vertex)?;
         println!(
             "reference: {} samples per item, relative standard error {:.3e}",

@@ -3,9 +3,10 @@
 //! image against a reference.
 
 use anyhow::{Context, Result};
+use engine::converge::{self, ConvergeReport};
 use engine::gpu::Gpu;
 use engine::metrics;
-use engine::passes::shade::reference::{self, ConvergeReport, ReferenceOptions, Visibility};
+use engine::passes::shade::reference::{ReferenceOptions, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
 use std::path::Path;
@@ -168,11 +169,11 @@ pub fn converge_reference(
     let out = (|| -> Result<ReferenceImage> {
         let opts =
             ReferenceOptions { samples_per_frame: samples_per_frame.max(1), seed: 1, visibility, ..Default::default() };
-        reference::reference_mut(&mut r).context("reference technique")?.set_options(opts)?;
+        converge::reference_mut(&mut r).context("reference technique")?.set_options(opts)?;
         let items: Vec<Vec<[f32; 3]>> =
             against.iter().map(|hdr| hdr.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect()).collect();
         let t0 = std::time::Instant::now();
-        let (report, stats) = reference::converge_until(gpu, &mut r, max_spp, |s| {
+        let (report, stats) = converge::converge_until(gpu, &mut r, max_spp, |s| {
             let err = items
                 .iter()
                 .map(|m| metrics::relative_rmse_items(m, &s.mean, &s.covered))

@@ -7,7 +7,7 @@
 
 use anyhow::{Context, Result};
 use engine::gpu::{Gpu, PassTiming, Swapchain};
-use engine::passes::shade::TECHNIQUES;
+use engine::passes::shade::{describe_technique, TECHNIQUES};
 use engine::renderer::Renderer;
 use engine::scene::Camera;
 use glam::Vec3;
@@ -157,7 +157,7 @@ impl App<'_> {
         self.swapchain = Some(swapchain);
         eprintln!(
             "viewer: drag to orbit, wheel to zoom, T technique ({}), V per-vertex/per-pixel, +/- exposure, R reset, Esc quit",
-            TECHNIQUES.join("/")
+            TECHNIQUES.iter().map(|t| t.name).collect::<Vec<_>>().join("/")
         );
         Ok(())
     }
@@ -251,9 +251,9 @@ impl App<'_> {
 
     fn next_technique(&mut self) -> Result<()> {
         let current = self.renderer.technique_name();
-        let i = TECHNIQUES.iter().position(|t| *t == current).unwrap_or(0);
-        let next = TECHNIQUES[(i + 1) % TECHNIQUES.len()];
-        eprintln!("viewer: technique {next} (preparing...)");
+        let i = TECHNIQUES.iter().position(|t| t.name == current).unwrap_or(0);
+        let next = TECHNIQUES[(i + 1) % TECHNIQUES.len()].name;
+        eprintln!("viewer: technique {} (preparing...)", describe_technique(next)?);
         self.renderer.set_technique(self.gpu, next)?;
         self.smoothed.clear();
         Ok(())

@@ -1,7 +1,16 @@
 //! The engine: soft shadows from sphere-set blockers under environment and spherical lights.
 //!
-//! Layers (dependencies point down): `gpu` (the only raw Vulkan) → `math` (f64, no Vulkan) →
-//! `scene` (plain data) → `blockers` → `passes` → `renderer`.
+//! Layers, lowest first; a module imports only from layers below it or its own (checked by
+//! tests/tests/layering.rs, which reads these sources):
+//! 0. `gpu` (the only raw Vulkan), `options` (spec parsing), `metrics`, `output`;
+//!    the crates `engine_math` (f64 math) and `engine_blockers` (sphere sets, BVH) sit beside them;
+//! 1. `scene` (plain data: meshes, materials, environment, lights, camera; loaders);
+//! 2. `tables` (the math tables in device memory);
+//! 3. `resources` (the scene in device memory, prepared once per scene and shared by every pass);
+//! 4. `passes` (one file per pass, each with its shader folder; `passes::shade` holds the techniques
+//!    and their registry);
+//! 5. `renderer` (one frame: skin → thin shells → blocker spheres → BVH → G-buffer → shade → tonemap);
+//! 6. `converge` (drives whole frames: the reference's convergence loops).
 
 pub use engine_blockers as blockers;
 pub use engine_math as math;
@@ -9,10 +18,13 @@ pub use engine_math as math;
 pub mod gpu;
 
 pub mod metrics;
+pub mod options;
 
+pub mod converge;
 pub mod output;
 pub mod passes;
 pub mod renderer;
+pub mod resources;
 pub mod scene;
 pub mod tables;
 

@@ -3,212 +3,32 @@
 //! GPU times. Everything is allocated in [`Renderer::new`]; a steady frame allocates no device
 //! memory (checked by a test through the allocator's counters).
 
-use crate::gpu::{
-    Buffer, BufferDesc, Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result,
-    SwapchainImage,
-};
-use crate::passes::blocker_bvh::{node_buffer_size, BlockerBvhPass};
+use crate::gpu::{Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result, SwapchainImage};
+use crate::passes::blocker_bvh::BlockerBvhPass;
 use crate::passes::blocker_spheres::BlockerSpheresPass;
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
-use crate::passes::layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
-use crate::passes::shade::{create_technique, ComposePass, ShadeInputs, ShadeTarget, Technique};
+use crate::passes::shade::{parse_technique, ComposePass, Reads, ShadeInputs, ShadeTarget, Technique};
 use crate::passes::skin::SkinPass;
-use crate::passes::thin_shells::{GpuThinCluster, GpuThinTriangle, ThinShellsPass};
+use crate::passes::thin_shells::ThinShellsPass;
 use crate::passes::tonemap::TonemapPass;
-use crate::scene::{Camera, Scene, SphereLight};
-use engine_math::envmap::LatLongMap;
+use crate::resources::layout::{FrameData, GpuObject};
+use crate::resources::GpuScene;
+use crate::scene::{Camera, Scene};
 use engine_math::prefilter::PREFILTER_LEVELS;
 
-/// The scene in device memory.
-pub struct GpuScene {
-    pub vertices: Buffer,
-    pub indices: Buffer,
-    pub objects: Buffer,
-    pub materials: Buffer,
-    pub world_vertices: Buffer,
-    pub vertex_radiance: Buffer,
-    /// Per-frame constants, host-visible, rewritten each frame (no allocation).
-    pub frame: Buffer,
-    pub environment: Image,
-    /// The environment on the CPU (already scaled by the scene's intensity), for techniques'
-    /// `prepare` (prefiltering, SG/SH fits).
-    pub environment_cpu: LatLongMap,
-    /// The scene's spherical lights (world space), for techniques' `prepare`.
-    pub lights: Vec<SphereLight>,
-    pub vertex_count: u32,
-    pub index_count: u32,
-    /// World-space blocker spheres `vec4(center, radius)`, rewritten every frame by the
-    /// `blocker_spheres` pass (at least one element, so the binding is valid with no spheres).
-    pub spheres: Buffer,
-    /// The blocker BVH ([`crate::passes::blocker_bvh::GpuBvhNode`], root at index 0), rebuilt every
-    /// frame by the `blocker_bvh` pass.
-    pub bvh_nodes: Buffer,
-    /// Number of blocker spheres (0: no blocker passes run; `spheres` and `bvh_nodes` stay valid).
-    pub sphere_count: u32,
-    /// Rest spheres with their instance and bone binding
-    /// ([`crate::passes::blocker_spheres::GpuBlockerSphere`]).
-    pub blocker_rest: Buffer,
-    /// Per-vertex bone influences ([`crate::passes::blocker_spheres::GpuVertexSkin`]).
-    pub vertex_skins: Buffer,
-    /// Bone matrices (mat4, host-visible, rewritten by [`Renderer::set_bones`]).
-    pub bones: Buffer,
-    pub bone_count: u32,
-    /// Thin shells ([`crate::passes::thin_shells`]): per thin triangle its scene vertex indices
-    /// (`uvec4`, built once), its world-space vertices (rewritten every frame), and the clusters
-    /// (triangle ranges built once, bounding spheres rewritten every frame). At least one element
-    /// each: with no thin mesh, cluster 0 holds no triangles.
-    pub thin_indices: Buffer,
-    pub thin_triangles: Buffer,
-    pub thin_clusters: Buffer,
-    /// Number of thin triangles and clusters (0: the thin_shells pass does not run).
-    pub thin_triangle_count: u32,
-    pub thin_cluster_count: u32,
-}
+/// The technique a renderer uses unless told otherwise: the best soft shadows at their defaults.
+pub const DEFAULT_TECHNIQUE: &str = "isg";
 
-impl GpuScene {
-    pub fn upload(gpu: &Gpu, scene: &Scene) -> Result<Self> {
-        let mut vertices = Vec::new();
-        let mut indices = Vec::new();
-        let mut objects = Vec::new();
-        for (i, inst) in scene.instances.iter().enumerate() {
-            let mesh = scene
-                .meshes
-                .get(inst.mesh)
-                .ok_or_else(|| GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)))?;
-            if inst.material >= scene.materials.len() {
-                return Err(GpuError::Other(format!("instance {i}: no material {}", inst.material)));
-            }
-            let base = vertices.len() as u32;
-            for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
-                vertices.push(GpuVertex {
-                    position: [p.x, p.y, p.z, i as f32],
-                    normal: [n.x, n.y, n.z, inst.material as f32],
-                });
-            }
-            indices.extend(mesh.indices.iter().map(|&k| base + k));
-            objects.push(GpuObject {
-                model: inst.transform.to_cols_array(),
-                normal_matrix: inst.transform.inverse().transpose().to_cols_array(),
-            });
+/// A technique made from its spec and prepared for a scene (destroyed again if `prepare` fails).
+fn make_technique(gpu: &Gpu, scene: &GpuScene, spec: &str) -> Result<(Box<dyn Technique>, Reads)> {
+    let (entry, options) = parse_technique(spec)?;
+    let mut t = (entry.create)(gpu, &options)?;
+    match t.prepare(gpu, &ShadeInputs::new(scene, entry.name, entry.reads)) {
+        Ok(()) => Ok((t, entry.reads)),
+        Err(e) => {
+            t.destroy(gpu);
+            Err(e)
         }
-        if vertices.is_empty() || indices.is_empty() {
-            return Err(GpuError::Other("the scene has no geometry".into()));
-        }
-        let materials: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::from_material).collect();
-        let k = scene.environment_intensity;
-        let env = LatLongMap {
-            width: scene.environment.width,
-            height: scene.environment.height,
-            texels: scene.environment.texels.iter().map(|t| t.map(|c| c * k)).collect(),
-        };
-        let env_bytes: Vec<f32> = env.texels.iter().flat_map(|t| [t[0], t[1], t[2], 1.0]).collect();
-        let blockers = crate::passes::blocker_spheres::gather(scene)?;
-        let sphere_count = blockers.rest.len() as u32;
-        let thin = crate::passes::thin_shells::gather(scene)?;
-        let thin_triangle_count = thin.indices.len() as u32;
-        let thin_cluster_count = thin.clusters.len() as u32;
-        let thin_indices = if thin.indices.is_empty() { vec![[0u32; 4]] } else { thin.indices };
-        let thin_clusters = if thin.clusters.is_empty() { vec![GpuThinCluster::default()] } else { thin.clusters };
-        let bone_count = blockers.bones.len() as u32;
-        let n = vertices.len() as u64;
-        let mut made: Vec<Buffer> = Vec::new();
-        let mut step = |r: Result<Buffer>| -> Result<()> {
-            made.push(r?);
-            Ok(())
-        };
-        let r = (|| {
-            step(gpu.upload_buffer("scene-vertices", BufferDesc::gpu_only(0), &vertices))?;
-            step(gpu.upload_buffer("scene-indices", BufferDesc::index(0), &indices))?;
-            // Host-visible: instance transforms are rewritten by Renderer::set_instance_transform.
-            step(gpu.create_buffer("scene-objects", BufferDesc::upload(std::mem::size_of_val(&objects[..]) as u64)))?;
-            step(gpu.upload_buffer("scene-materials", BufferDesc::gpu_only(0), &materials))?;
-            step(gpu.create_buffer("scene-world-vertices", BufferDesc::gpu_only(n * 32)))?;
-            step(gpu.upload_buffer("scene-vertex-radiance", BufferDesc::gpu_only(0), &vec![[0f32; 4]; n as usize]))?;
-            step(gpu.create_buffer("frame-constants", BufferDesc::upload(std::mem::size_of::<FrameData>() as u64)))?;
-            step(gpu.create_buffer("blocker-spheres", BufferDesc::gpu_only(16 * sphere_count.max(1) as u64)))?;
-            step(gpu.create_buffer("blocker-bvh-nodes", BufferDesc::gpu_only(node_buffer_size(sphere_count))))?;
-            step(gpu.upload_buffer("blocker-rest", BufferDesc::gpu_only(64), &blockers.rest))?;
-            step(gpu.upload_buffer("scene-vertex-skins", BufferDesc::gpu_only(0), &blockers.vertex_skins))?;
-            step(gpu.create_buffer("scene-bones", BufferDesc::upload(64 * bone_count.max(1) as u64)))?;
-            step(gpu.upload_buffer("thin-indices", BufferDesc::gpu_only(0), &thin_indices))?;
-            let tri_bytes = std::mem::size_of::<GpuThinTriangle>() as u64 * thin_triangle_count.max(1) as u64;
-            step(gpu.create_buffer("thin-triangles", BufferDesc::gpu_only(tri_bytes)))?;
-            step(gpu.upload_buffer("thin-clusters", BufferDesc::gpu_only(0), &thin_clusters))?;
-            Ok(())
-        })();
-        let environment = r.and_then(|_| {
-            gpu.upload_image(
-                "environment",
-                ImageDesc::texture(env.width as u32, env.height as u32, ImageFormat::Rgba32f),
-                bytemuck::cast_slice(&env_bytes),
-            )
-        });
-        let environment = match environment {
-            Ok(e) => e,
-            Err(e) => {
-                for b in made {
-                    gpu.destroy_buffer(b);
-                }
-                return Err(e);
-            }
-        };
-        let mut it = made.into_iter();
-        let mut next = || it.next().ok_or_else(|| GpuError::Other("internal: buffer list".into()));
-        let mut out = Self {
-            vertices: next()?,
-            indices: next()?,
-            objects: next()?,
-            materials: next()?,
-            world_vertices: next()?,
-            vertex_radiance: next()?,
-            frame: next()?,
-            environment,
-            environment_cpu: env,
-            lights: scene.lights.clone(),
-            vertex_count: n as u32,
-            index_count: indices.len() as u32,
-            spheres: next()?,
-            bvh_nodes: next()?,
-            sphere_count,
-            blocker_rest: next()?,
-            vertex_skins: next()?,
-            bones: next()?,
-            bone_count,
-            thin_indices: next()?,
-            thin_triangles: next()?,
-            thin_clusters: next()?,
-            thin_triangle_count,
-            thin_cluster_count,
-        };
-        let written = out.objects.write(&objects).and_then(|_| out.bones.write(&blockers.bones));
-        if let Err(e) = written {
-            out.destroy(gpu);
-            return Err(e);
-        }
-        Ok(out)
-    }
-
-    pub fn destroy(self, gpu: &Gpu) {
-        for b in [
-            self.vertices,
-            self.indices,
-            self.objects,
-            self.materials,
-            self.world_vertices,
-            self.vertex_radiance,
-            self.frame,
-            self.spheres,
-            self.bvh_nodes,
-            self.blocker_rest,
-            self.vertex_skins,
-            self.bones,
-            self.thin_indices,
-            self.thin_triangles,
-            self.thin_clusters,
-        ] {
-            gpu.destroy_buffer(b);
-        }
-        gpu.destroy_image(self.environment);
     }
 }
 
@@ -226,7 +46,7 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 640, height: 480, technique: "none".into(), per_vertex: false, exposure: 1.0 }
+        Self { width: 640, height: 480, technique: DEFAULT_TECHNIQUE.into(), per_vertex: false, exposure: 1.0 }
     }
 }
 
@@ -245,12 +65,12 @@ struct Parts {
     compose: Option<ComposePass>,
     tonemap: Option<TonemapPass>,
     frame: Option<Frame>,
-    technique: Option<Box<dyn Technique>>,
+    technique: Option<(Box<dyn Technique>, Reads)>,
 }
 
 impl Parts {
     fn destroy(self, gpu: &Gpu) {
-        if let Some(t) = self.technique {
+        if let Some((t, _)) = self.technique {
             t.destroy(gpu);
         }
         if let Some(f) = self.frame {
@@ -304,6 +124,7 @@ pub struct Renderer {
     compose: ComposePass,
     tonemap: TonemapPass,
     technique: Box<dyn Technique>,
+    reads: Reads,
     frame: Frame,
     pub settings: RenderSettings,
     camera: Camera,
@@ -325,20 +146,16 @@ impl Renderer {
             p.ldr = Some(gpu.create_image("ldr", ImageDesc::target(w, h, ImageFormat::Rgba8Unorm))?);
             p.skin = Some(SkinPass::new(gpu)?);
             p.blocker_spheres = Some(BlockerSpheresPass::new(gpu)?);
-            let spheres = p.scene.as_ref().map_or(0, |s| s.sphere_count);
+            let spheres = p.scene.as_ref().map_or(0, |s| s.blockers.sphere_count);
             p.blocker_bvh = Some(BlockerBvhPass::new(gpu, spheres)?);
             p.thin_shells = Some(ThinShellsPass::new(gpu)?);
             p.gbuffer_pass = Some(GBufferPass::new(gpu)?);
             p.compose = Some(ComposePass::new(gpu)?);
             p.tonemap = Some(TonemapPass::new(gpu)?);
             p.frame = Some(gpu.create_frame()?);
-            let mut t = create_technique(gpu, &settings.technique)?;
-            let prepared = match &p.scene {
-                Some(s) => t.prepare(gpu, s),
-                None => Ok(()),
-            };
-            p.technique = Some(t);
-            prepared
+            let scene = p.scene.as_ref().ok_or_else(|| GpuError::Other("internal: scene missing".into()))?;
+            p.technique = Some(make_technique(gpu, scene, &settings.technique)?);
+            Ok(())
         })();
         if let Err(e) = built {
             p.destroy(gpu);
@@ -350,6 +167,7 @@ impl Renderer {
         let far = dist + extent * 2.0;
         let near = (far * 1e-4).max(1e-4);
         let missing = || GpuError::Other("internal: renderer part missing".into());
+        let technique = p.technique.take().ok_or_else(missing)?;
         Ok(Self {
             scene: p.scene.ok_or_else(missing)?,
             gbuffer: p.gbuffer.ok_or_else(missing)?,
@@ -362,7 +180,8 @@ impl Renderer {
             gbuffer_pass: p.gbuffer_pass.ok_or_else(missing)?,
             compose: p.compose.ok_or_else(missing)?,
             tonemap: p.tonemap.ok_or_else(missing)?,
-            technique: p.technique.ok_or_else(missing)?,
+            technique: technique.0,
+            reads: technique.1,
             frame: p.frame.ok_or_else(missing)?,
             camera: scene.camera,
             near_far: (near, far),
@@ -375,13 +194,10 @@ impl Renderer {
         if name == self.settings.technique {
             return Ok(());
         }
-        let mut t = create_technique(gpu, name)?;
-        if let Err(e) = t.prepare(gpu, &self.scene) {
-            t.destroy(gpu);
-            return Err(e);
-        }
+        let (t, reads) = make_technique(gpu, &self.scene, name)?;
         let old = std::mem::replace(&mut self.technique, t);
         old.destroy(gpu);
+        self.reads = reads;
         self.settings.technique = name.to_string();
         Ok(())
     }
@@ -413,14 +229,19 @@ impl Renderer {
             up: [u.x, u.y, u.z, t],
             forward: [f.x, f.y, f.z, self.near_far.0],
             params: [self.near_far.1, self.settings.exposure, 0.0, 0.0],
-            size: [self.settings.width, self.settings.height, self.scene.vertex_count, PREFILTER_LEVELS as u32],
+            size: [
+                self.settings.width,
+                self.settings.height,
+                self.scene.geometry.vertex_count,
+                PREFILTER_LEVELS as u32,
+            ],
         }
     }
 
     /// Animate: the object-to-world transform of instance `i` from the next frame on (moves its vertices
     /// and blocker spheres; rewrites a host-visible buffer, allocates nothing).
     pub fn set_instance_transform(&mut self, i: usize, transform: glam::Mat4) -> Result<()> {
-        let count = self.scene.objects.desc.size as usize / std::mem::size_of::<GpuObject>();
+        let count = self.scene.geometry.objects.desc.size as usize / std::mem::size_of::<GpuObject>();
         if i >= count || !transform.is_finite() {
             return Err(GpuError::Other(format!("instance {i} of {count}, or a non-finite transform")));
         }
@@ -428,23 +249,23 @@ impl Renderer {
             model: transform.to_cols_array(),
             normal_matrix: transform.inverse().transpose().to_cols_array(),
         };
-        let mut all: Vec<GpuObject> = self.scene.objects.read()?;
+        let mut all: Vec<GpuObject> = self.scene.geometry.objects.read()?;
         all[i] = object;
-        self.scene.objects.write(&all[..count])
+        self.scene.geometry.objects.write(&all[..count])
     }
 
     /// Animate: the bone matrices (rest → posed object space) from the next frame on, for the skin
     /// pass and the blocker spheres alike. `bones.len()` must equal the scene's bone count.
     pub fn set_bones(&mut self, bones: &[glam::Mat4]) -> Result<()> {
-        if bones.len() != self.scene.bone_count as usize || bones.iter().any(|m| !m.is_finite()) {
+        if bones.len() != self.scene.geometry.bone_count as usize || bones.iter().any(|m| !m.is_finite()) {
             return Err(GpuError::Other(format!(
                 "{} bone matrices (the scene has {}), or a non-finite one",
                 bones.len(),
-                self.scene.bone_count
+                self.scene.geometry.bone_count
             )));
         }
         let cols: Vec<[f32; 16]> = bones.iter().map(|m| m.to_cols_array()).collect();
-        self.scene.bones.write(&cols)
+        self.scene.geometry.bones.write(&cols)
     }
 
     /// Render one frame and wait for it; returns per-pass GPU times.
@@ -474,6 +295,7 @@ impl Renderer {
             compose,
             tonemap,
             technique,
+            reads,
             frame,
             settings,
             ..
@@ -483,10 +305,11 @@ impl Renderer {
             skin.record(rec, scene)?;
             thin_shells.record(rec, scene)?;
             blocker_spheres.record(rec, scene)?;
-            blocker_bvh.record(rec, &scene.spheres, &scene.bvh_nodes, scene.sphere_count)?;
-            let inputs = ShadeInputs { scene };
+            let b = &scene.blockers;
+            blocker_bvh.record(rec, &b.spheres, &b.bvh_nodes, b.sphere_count)?;
+            let inputs = ShadeInputs::new(scene, technique.name(), *reads);
             if per_vertex {
-                technique.record(rec, &inputs, ShadeTarget::Vertex)?;
+                technique.record(rec, &inputs, ShadeTarget::vertices(&scene.geometry))?;
             }
             gbuffer_pass.record(rec, scene, gbuffer)?;
             if per_vertex {

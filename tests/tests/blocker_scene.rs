@@ -8,9 +8,9 @@
 //!   frames allocate no device memory.
 
 use engine::blockers::traverse;
-use engine::passes::blocker_bvh::GpuBvhNode;
-use engine::passes::layout::GpuVertex;
 use engine::renderer::{RenderSettings, Renderer};
+use engine::resources::blockers::GpuBvhNode;
+use engine::resources::layout::GpuVertex;
 use glam::{Mat4, Vec3};
 
 /// Largest distance (scene units) by which a deformed arm vertex may lie outside every deformed sphere.
@@ -19,16 +19,16 @@ use glam::{Mat4, Vec3};
 const COVER_TOLERANCE: f32 = 0.01;
 
 fn small() -> RenderSettings {
-    RenderSettings { width: 32, height: 24, ..Default::default() }
+    RenderSettings { width: 32, height: 24, technique: "none".into(), ..Default::default() }
 }
 
 fn read_state(gpu: &engine::gpu::Gpu, r: &Renderer) -> (Vec<GpuVertex>, Vec<[f32; 4]>, Vec<GpuBvhNode>) {
-    let n = r.scene.sphere_count as usize;
-    let mut spheres = gpu.read_buffer::<[f32; 4]>(&r.scene.spheres).unwrap();
+    let n = r.scene.blockers.sphere_count as usize;
+    let mut spheres = gpu.read_buffer::<[f32; 4]>(&r.scene.blockers.spheres).unwrap();
     spheres.truncate(n);
-    let mut nodes = gpu.read_buffer::<GpuBvhNode>(&r.scene.bvh_nodes).unwrap();
+    let mut nodes = gpu.read_buffer::<GpuBvhNode>(&r.scene.blockers.bvh_nodes).unwrap();
     nodes.truncate((2 * n).saturating_sub(1));
-    (gpu.read_buffer::<GpuVertex>(&r.scene.world_vertices).unwrap(), spheres, nodes)
+    (gpu.read_buffer::<GpuVertex>(&r.scene.geometry.world_vertices).unwrap(), spheres, nodes)
 }
 
 /// Max over `points` of (distance to the nearest sphere surface, 0 when inside).
@@ -89,7 +89,7 @@ fn rigid_bunny_spheres_move_and_steady_frames_allocate_nothing() {
     assert_eq!(rest.len(), 64, "the bunny's default sphere set");
     let base = scene.instances[0].transform;
     let mut r = Renderer::new(&gpu, &scene, small()).unwrap();
-    assert_eq!(r.scene.sphere_count, 64);
+    assert_eq!(r.scene.blockers.sphere_count, 64);
     let pose = |f: u32| {
         Mat4::from_rotation_y(0.3 * f as f32) * Mat4::from_translation(Vec3::new(0.0, 0.1 * f as f32, 0.0)) * base
     };
@@ -130,7 +130,7 @@ fn rigid_bunny_spheres_move_and_steady_frames_allocate_nothing() {
 fn scenes_without_blockers_run_no_blocker_pass() {
     let gpu = engine_tests::gpu();
     let mut r = Renderer::new(&gpu, &demos::furnace_scene(0.5, 1.0), small()).unwrap();
-    assert_eq!(r.scene.sphere_count, 0);
+    assert_eq!(r.scene.blockers.sphere_count, 0);
     let timings = r.render(&gpu).unwrap();
     assert!(timings.iter().all(|t| !t.name.starts_with("blocker")), "{timings:?}");
     r.destroy(&gpu);

@@ -5,13 +5,14 @@
 //! (engine::math::brdf, isg::cpu::specular), and hard cases (grazing views, extreme exponents).
 
 use engine::blockers::Sphere;
+use engine::converge;
 use engine::math::brdf::{self, HalfVectorFit};
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
-use engine::passes::layout::GpuMaterial;
 use engine::passes::shade::isg::{cpu, IsgOptions};
-use engine::passes::shade::reference::{self, ReferenceOptions, Visibility};
+use engine::passes::shade::reference::{ReferenceOptions, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
+use engine::resources::layout::GpuMaterial;
 use engine::scene::{Camera, Instance, Material, Scene};
 use glam::{DVec3, Mat4, Vec3};
 
@@ -97,8 +98,8 @@ fn none_matches_unshadowed_reference() {
     let mut r = Renderer::new(&gpu, &scene, settings("reference")).expect("renderer");
     let opts =
         ReferenceOptions { visibility: Visibility::Unoccluded, samples_per_frame: 64, ..ReferenceOptions::default() };
-    reference::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
-    let (report, stats) = reference::converge(&gpu, &mut r, 2e-3, 4096).expect("converge");
+    converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+    let (report, stats) = converge::converge(&gpu, &mut r, 2e-3, 4096).expect("converge");
     r.destroy(&gpu);
     gpu.shutdown().expect("clean teardown");
     assert_eq!(stats.nonfinite_samples, 0, "non-finite reference samples");
@@ -200,8 +201,8 @@ fn reference_is_unbiased_furnace() {
     let mut r = Renderer::new(&gpu, &scene, settings("reference")).expect("renderer");
     let opts =
         ReferenceOptions { visibility: Visibility::Unoccluded, samples_per_frame: 64, ..ReferenceOptions::default() };
-    reference::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
-    let (_, stats) = reference::converge(&gpu, &mut r, 2e-3, 2048).expect("converge");
+    converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+    let (_, stats) = converge::converge(&gpu, &mut r, 2e-3, 2048).expect("converge");
     let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
     let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
     r.destroy(&gpu);
@@ -333,8 +334,8 @@ fn extreme_parameters_stay_finite() {
         }
         let mut r = Renderer::new(&gpu, &scene, settings("reference")).expect("renderer");
         let opts = ReferenceOptions { visibility: Visibility::Spheres, samples_per_frame: 16, ..Default::default() };
-        reference::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
-        let (_, stats) = reference::converge(&gpu, &mut r, 0.0, 16).expect("converge");
+        converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+        let (_, stats) = converge::converge(&gpu, &mut r, 0.0, 16).expect("converge");
         r.destroy(&gpu);
         assert_eq!(stats.nonfinite_samples, 0, "{spec}: non-finite reference samples");
         assert!(stats.mean.iter().flatten().all(|x| x.is_finite()), "{spec}: reference");

@@ -51,7 +51,8 @@ fn default_scene_matches_reference() {
     let gpu = engine_tests::gpu();
     let scene = demos::bunny_scene(None).expect("default scene");
     let (w, h) = (128, 96);
-    let (hdr, ldr) = engine_tests::render(&gpu, &scene, RenderSettings { width: w, height: h, ..Default::default() });
+    let settings = RenderSettings { width: w, height: h, technique: "none".into(), ..Default::default() };
+    let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
     gpu.shutdown().expect("clean teardown");
     assert!(hdr.iter().all(|v| v.is_finite()), "non-finite pixel in the default scene");
     check_against_reference("default", w, h, &ldr, FLIP_MEAN_THRESHOLD);
@@ -78,7 +79,11 @@ fn default_scene_shows_the_environment() {
     let gpu = engine_tests::gpu();
     let scene = demos::bunny_scene(None).expect("default scene");
     let (w, h) = (128u32, 96u32);
-    let (hdr, _) = engine_tests::render(&gpu, &scene, RenderSettings { width: w, height: h, ..Default::default() });
+    let (hdr, _) = engine_tests::render(
+        &gpu,
+        &scene,
+        RenderSettings { width: w, height: h, technique: "none".into(), ..Default::default() },
+    );
     gpu.shutdown().expect("clean teardown");
     let px = |x: u32, y: u32| {
         let i = ((y * w + x) * 4) as usize;

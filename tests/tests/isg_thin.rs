@@ -5,13 +5,14 @@
 //! sphere-proxy reference (which traces the thin triangles too).
 
 use engine::blockers::Sphere;
+use engine::converge::{converge, reference_mut};
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
 use engine::passes::shade::isg::thin::parallel_rectangle_form_factor;
 use engine::passes::shade::isg::{cpu, Diffuse, IsgOptions};
-use engine::passes::shade::reference::{converge, reference_mut, ReferenceOptions, Visibility};
-use engine::passes::thin_shells::{GpuThinCluster, GpuThinTriangle};
+use engine::passes::shade::reference::{ReferenceOptions, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
+use engine::resources::thin::{GpuThinCluster, GpuThinTriangle};
 use engine::scene::Scene;
 use glam::{DVec3, Mat4, Vec3};
 
@@ -312,9 +313,9 @@ fn hard_cases_and_the_thin_shells_pass() {
     for lift in [0.0f32, 0.3] {
         r.set_instance_transform(1, Mat4::from_translation(Vec3::new(0.0, 0.5 + lift, 0.0))).expect("move");
         r.render(&gpu).expect("frame");
-        let tris: Vec<GpuThinTriangle> = gpu.read_buffer(&r.scene.thin_triangles).expect("triangles");
-        let clusters: Vec<GpuThinCluster> = gpu.read_buffer(&r.scene.thin_clusters).expect("clusters");
-        assert_eq!(r.scene.thin_triangle_count as usize, 6 * 6 * 2 + 4 * 4 * 2 + 3);
+        let tris: Vec<GpuThinTriangle> = gpu.read_buffer(&r.scene.thin.triangles).expect("triangles");
+        let clusters: Vec<GpuThinCluster> = gpu.read_buffer(&r.scene.thin.clusters).expect("clusters");
+        assert_eq!(r.scene.thin.triangle_count as usize, 6 * 6 * 2 + 4 * 4 * 2 + 3);
         let mut want: Vec<[DVec3; 3]> = {
             let mut s2 = scene.clone();
             s2.instances[1].transform = Mat4::from_translation(Vec3::new(0.0, 0.5 + lift, 0.0));

@@ -16,7 +16,7 @@ use engine::gpu::testing::{run_f32_kernel, test_gpu};
 use engine::math::brdf::{self, HalfVectorFit, SpecularModel};
 use engine::math::rng::Pcg32;
 use engine::math::sg::Ndf;
-use engine::passes::layout::GpuMaterial;
+use engine::resources::layout::GpuMaterial;
 use engine::scene::{Brdf, Material};
 use glam::Vec3;
 use twin::*;

@@ -4,9 +4,10 @@
 //! pixels beyond 3 se, where a Gaussian gives 0.27 %, and none beyond 6 se). Seeds are fixed, so
 //! every run gives the same bits.
 
+use engine::converge;
 use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
-use engine::passes::shade::reference::{self, ReferenceOptions, ReferenceStats, Visibility};
+use engine::passes::shade::reference::{ReferenceOptions, ReferenceStats, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::{Camera, Instance, Material, Scene};
 use glam::{Mat4, Vec3};
@@ -15,7 +16,7 @@ use std::f64::consts::PI;
 fn renderer(gpu: &Gpu, scene: &Scene, w: u32, h: u32, options: ReferenceOptions) -> Renderer {
     let settings = RenderSettings { width: w, height: h, technique: "reference".into(), ..Default::default() };
     let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
-    reference::reference_mut(&mut r).expect("reference technique").set_options(options).expect("options");
+    converge::reference_mut(&mut r).expect("reference technique").set_options(options).expect("options");
     r
 }
 
@@ -88,7 +89,7 @@ fn constant_environment_over_a_lambertian_plane() {
     let scene = plane_scene(LatLongMap::constant(64, 32, [l; 3]), albedo);
     let options = ReferenceOptions { samples_per_frame: 32, seed: 7, ..Default::default() };
     let mut r = renderer(&gpu, &scene, 48, 36, options);
-    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    let (report, stats) = converge::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
     let expected: Vec<Option<[f64; 3]>> = stats.covered.iter().map(|c| c.then_some([(albedo * l) as f64; 3])).collect();
     check(&stats, &expected, "constant env, plane");
     assert!(report.converged, "{report:?}");
@@ -158,7 +159,7 @@ fn sphere_blocker_over_a_plane() {
     let options = ReferenceOptions { samples_per_frame: 32, seed: 11, ..Default::default() };
     let (w, h) = (48, 36);
     let mut r = renderer(&gpu, &scene, w, h, options);
-    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    let (report, stats) = converge::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
     let g = gbuffer(&gpu, &r);
     let r_in = SPHERE_RADIUS * inscribed_radius(SPHERE_STACKS);
     assert!(r_in < SPHERE_RADIUS && r_in > 0.998 * SPHERE_RADIUS, "{r_in}");
@@ -185,8 +186,8 @@ fn sphere_blocker_over_a_plane() {
     // Visibility switched off: the same pixels shade to ρL.
     let mut opts = options;
     opts.visibility = Visibility::Unoccluded;
-    reference::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
-    let (_, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+    let (_, stats) = converge::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
     let unoccluded: Vec<_> = expected.iter().map(|e| e.map(|_| [rho_l; 3])).collect();
     check(&stats, &unoccluded, "sphere blocker, visibility off");
     r.destroy(&gpu);
@@ -197,7 +198,7 @@ fn sphere_blocker_over_a_plane() {
     let unit = engine::blockers::Sphere { center: glam::DVec3::ZERO, radius: 1.0 };
     scene.blockers.spheres = vec![None, Some(vec![unit])];
     let mut r = renderer(&gpu, &scene, w, h, ReferenceOptions { visibility: Visibility::Spheres, ..options });
-    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    let (report, stats) = converge::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
     let exact: Vec<_> = g
         .iter()
         .map(|px| {
@@ -227,7 +228,7 @@ fn sphere_light_over_a_plane() {
     });
     let options = ReferenceOptions { samples_per_frame: 32, seed: 3, ..Default::default() };
     let mut r = renderer(&gpu, &scene, 48, 36, options);
-    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    let (report, stats) = converge::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
     let g = gbuffer(&gpu, &r);
     let expected: Vec<_> =
         g.iter().map(|px| px.map(|(p, _)| [(albedo * ls) as f64 * cap_cosine_fraction(p, c, r_light); 3])).collect();
@@ -295,7 +296,7 @@ fn spherical_gaussian_environment_over_a_plane() {
     let scene = plane_scene(env, albedo);
     let options = ReferenceOptions { samples_per_frame: 32, seed: 5, ..Default::default() };
     let mut r = renderer(&gpu, &scene, 48, 36, options);
-    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
+    let (report, stats) = converge::converge(&gpu, &mut r, 1e-2, 2048).expect("converge");
     let expected: Vec<_> = stats.covered.iter().map(|c| c.then_some([want; 3])).collect();
     check(&stats, &expected, "SG environment");
     assert!(report.converged, "{report:?}");
@@ -314,14 +315,14 @@ fn deterministic_for_a_seed() {
         for _ in 0..3 {
             r.render(&gpu).expect("frame");
         }
-        assert_eq!(reference::reference_mut(&mut r).expect("reference").samples(false), 12);
+        assert_eq!(converge::reference_mut(&mut r).expect("reference").samples(false), 12);
         let img = r.read_radiance(&gpu).expect("readback");
         // A new camera restarts accumulation.
         let mut cam = r.camera();
         cam.eye.x += 0.1;
         r.set_camera(cam);
         r.render(&gpu).expect("frame");
-        assert_eq!(reference::reference_mut(&mut r).expect("reference").samples(false), 4);
+        assert_eq!(converge::reference_mut(&mut r).expect("reference").samples(false), 4);
         r.destroy(&gpu);
         img
     };
@@ -344,8 +345,8 @@ fn per_vertex_constant_environment() {
         RenderSettings { width: 32, height: 24, technique: "reference".into(), per_vertex: true, ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
     let options = ReferenceOptions { samples_per_frame: 64, seed: 2, ..Default::default() };
-    reference::reference_mut(&mut r).expect("reference").set_options(options).expect("options");
-    let (report, stats) = reference::converge(&gpu, &mut r, 1e-2, 4096).expect("converge");
+    converge::reference_mut(&mut r).expect("reference").set_options(options).expect("options");
+    let (report, stats) = converge::converge(&gpu, &mut r, 1e-2, 4096).expect("converge");
     assert_eq!(stats.mean.len(), 17 * 17);
     let expected: Vec<_> = stats.covered.iter().map(|c| c.then_some([(albedo * l) as f64; 3])).collect();
     check(&stats, &expected, "per vertex");
@@ -373,7 +374,7 @@ fn bunny_proxy_error() {
         let options = ReferenceOptions { samples_per_frame: 64, seed: 1, visibility, ..Default::default() };
         let mut r = renderer(&gpu, &scene, w, h, options);
         let t0 = std::time::Instant::now();
-        let (report, stats) = reference::converge(&gpu, &mut r, target, 8192).expect("converge");
+        let (report, stats) = converge::converge(&gpu, &mut r, target, 8192).expect("converge");
         let secs = t0.elapsed().as_secs_f64();
         let img = r.read_radiance(&gpu).expect("readback");
         let ldr = r.read_ldr(&gpu).expect("readback");

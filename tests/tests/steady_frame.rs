@@ -6,7 +6,12 @@ use engine::renderer::{RenderSettings, Renderer};
 fn steady_frames_allocate_nothing() {
     let gpu = engine_tests::gpu();
     let scene = demos::furnace_scene(0.5, 1.0);
-    let mut r = Renderer::new(&gpu, &scene, RenderSettings { width: 32, height: 24, ..Default::default() }).unwrap();
+    let mut r = Renderer::new(
+        &gpu,
+        &scene,
+        RenderSettings { width: 32, height: 24, technique: "none".into(), ..Default::default() },
+    )
+    .unwrap();
     r.render(&gpu).unwrap();
     let first = gpu.memory_stats();
     for _ in 0..100 {

@@ -14,16 +14,13 @@
 //! allocated in [`BlockerBvhPass::new`] for a capacity; recording allocates nothing.
 
 use crate::gpu::{Binding, Buffer, BufferDesc, ComputePipeline, Gpu, GpuError, Recorder, Result};
-pub use engine_blockers::bvh::GpuBvhNode;
+pub use crate::resources::blockers::{node_buffer_size, GpuBvhNode, MAX_SPHERES};
 
 /// Keys per radix tile (shaders-glsl/blocker_bvh/radix.glsl: 256 threads × 4 keys).
 const RADIX_TILE: u32 = 1024;
 /// Radix sort passes: 4-bit digits over the 30-bit codes (32 bits, an even count so the sorted keys end
 /// in the first buffer).
 const RADIX_PASSES: u32 = 8;
-/// Largest sphere count the pass accepts: the refit step runs one invocation per workgroup (see
-/// refit.comp) and 65535 workgroups is the smallest `maxComputeWorkGroupCount[0]` Vulkan allows.
-pub const MAX_SPHERES: u32 = 65535;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -66,12 +63,6 @@ const SHADERS: [&str; 7] = [
     "blocker_bvh/hierarchy.comp",
     "blocker_bvh/refit.comp",
 ];
-
-/// Bytes of a node array for `sphere_count` spheres (2n − 1 nodes; at least one node so that an empty
-/// scene still has a valid binding).
-pub fn node_buffer_size(sphere_count: u32) -> u64 {
-    (2 * sphere_count as u64).saturating_sub(1).max(1) * std::mem::size_of::<GpuBvhNode>() as u64
-}
 
 impl BlockerBvhPass {
     /// Compiles the steps and allocates scratch for up to `capacity` spheres.

@@ -1,5 +1,5 @@
 //! `blocker_spheres` pass (shaders-glsl/blocker_spheres): every frame, the world-space blocker spheres
-//! `GpuScene::spheres` (`vec4(center, radius)`) from the rest spheres of every instance whose mesh has a
+//! `BlockerResources::spheres` (`vec4(center, radius)`) from the rest spheres of every instance whose mesh has a
 //! sphere set, moved by the same instance transforms and bone matrices as the skin pass:
 //!
 //! - rigid: centre transformed by the instance's model matrix, radius scaled by its largest axis scale;
@@ -7,101 +7,11 @@
 //!   ([`crate::scene::blockers::bind_sphere_to_bones`]), radius kept (times the model's largest axis
 //!   scale), as SHEXP §6.2 does for articulated motion.
 //!
-//! Also the host twins of the per-vertex skin and per-sphere binding records (std430, layout tests).
+//! The records it reads are in [`crate::resources::blockers`].
 
-use crate::gpu::{Binding, ComputePipeline, Gpu, GpuError, Recorder, Result};
-use crate::renderer::GpuScene;
-use crate::scene::blockers::bind_sphere_to_bones;
-use crate::scene::Scene;
+use crate::gpu::{Binding, ComputePipeline, Gpu, Recorder, Result};
+use crate::resources::GpuScene;
 use bytemuck::{Pod, Zeroable};
-
-/// `struct VertexSkin` of shaders-glsl/common/skinning.glsl: four bone indices and weights per vertex
-/// (weights summing to 0: the vertex follows its instance only).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuVertexSkin {
-    pub joints: [u32; 4],
-    pub weights: [f32; 4],
-}
-
-/// `struct BlockerSphere` of shaders-glsl/blocker_spheres/animate.comp: rest sphere (object space),
-/// bone binding, and `info.x` = the object (instance) index.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuBlockerSphere {
-    pub sphere: [f32; 4],
-    pub joints: [u32; 4],
-    pub weights: [f32; 4],
-    pub info: [u32; 4],
-}
-
-/// What [`GpuScene::upload`] puts in device memory for blockers and skinning.
-pub struct BlockerData {
-    /// One record per world-space sphere (instances in order, spheres of each in file order).
-    pub rest: Vec<GpuBlockerSphere>,
-    /// One record per scene vertex, in the vertex order of the upload (instances in order).
-    pub vertex_skins: Vec<GpuVertexSkin>,
-    /// Initial bone matrices (column-major).
-    pub bones: Vec<[f32; 16]>,
-}
-
-/// Gathers the blocker and skin records of `scene` (validated: skin lengths, bone indices, spheres).
-pub fn gather(scene: &Scene) -> Result<BlockerData> {
-    let b = &scene.blockers;
-    let bone_count = b.bones.len() as u32;
-    let mut rest = Vec::new();
-    let mut vertex_skins = Vec::new();
-    for (i, inst) in scene.instances.iter().enumerate() {
-        let Some(mesh) = scene.meshes.get(inst.mesh) else {
-            return Err(GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)));
-        };
-        let skin = b.skin_of(inst.mesh);
-        if let Some(skin) = skin {
-            if skin.joints.len() != mesh.positions.len() || skin.weights.len() != mesh.positions.len() {
-                return Err(GpuError::Other(format!(
-                    "mesh '{}': skin has {} joints / {} weights for {} vertices",
-                    mesh.name,
-                    skin.joints.len(),
-                    skin.weights.len(),
-                    mesh.positions.len()
-                )));
-            }
-            if let Some(j) = skin.joints.iter().flatten().find(|&&j| j >= bone_count) {
-                return Err(GpuError::Other(format!("mesh '{}': bone {j} of {bone_count}", mesh.name)));
-            }
-            if skin.weights.iter().flatten().any(|w| !w.is_finite() || *w < 0.0) {
-                return Err(GpuError::Other(format!("mesh '{}': negative or non-finite skin weight", mesh.name)));
-            }
-            vertex_skins.extend(
-                skin.joints.iter().zip(&skin.weights).map(|(&joints, &weights)| GpuVertexSkin { joints, weights }),
-            );
-        } else {
-            vertex_skins.extend(std::iter::repeat_n(GpuVertexSkin::default(), mesh.positions.len()));
-        }
-        for (k, s) in b.spheres_of(inst.mesh).unwrap_or(&[]).iter().enumerate() {
-            s.validate(k).map_err(|e| GpuError::Other(format!("mesh '{}': {e}", mesh.name)))?;
-            let (joints, weights) = match skin {
-                Some(skin) => bind_sphere_to_bones(s, &mesh.positions, skin),
-                None => ([0; 4], [0.0; 4]),
-            };
-            let c = s.center.as_vec3();
-            rest.push(GpuBlockerSphere {
-                sphere: [c.x, c.y, c.z, s.radius as f32],
-                joints,
-                weights,
-                info: [i as u32, 0, 0, 0],
-            });
-        }
-    }
-    if rest.len() > crate::passes::blocker_bvh::MAX_SPHERES as usize {
-        return Err(GpuError::Other(format!(
-            "{} blocker spheres, at most {}",
-            rest.len(),
-            crate::passes::blocker_bvh::MAX_SPHERES
-        )));
-    }
-    Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect() })
-}
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -121,42 +31,25 @@ impl BlockerSpheresPass {
 
     /// Writes `scene.spheres`; nothing is dispatched when the scene has no spheres.
     pub fn record(&self, rec: &mut Recorder, scene: &GpuScene) -> Result<()> {
-        if scene.sphere_count == 0 {
+        if scene.blockers.sphere_count == 0 {
             return Ok(());
         }
         rec.begin_pass("blocker_spheres");
-        let push = Push { sphere_count: scene.sphere_count, bone_count: scene.bone_count };
+        let push = Push { sphere_count: scene.blockers.sphere_count, bone_count: scene.geometry.bone_count };
         rec.dispatch(
             &self.pipeline,
             &[
-                Binding::buffer("BlockerSpheres", &scene.blocker_rest),
-                Binding::buffer("Objects", &scene.objects),
-                Binding::buffer("Bones", &scene.bones),
-                Binding::buffer("Spheres", &scene.spheres),
+                Binding::buffer("BlockerSpheres", &scene.blockers.rest),
+                Binding::buffer("Objects", &scene.geometry.objects),
+                Binding::buffer("Bones", &scene.geometry.bones),
+                Binding::buffer("Spheres", &scene.blockers.spheres),
             ],
             bytemuck::bytes_of(&push),
-            [scene.sphere_count, 1, 1],
+            [scene.blockers.sphere_count, 1, 1],
         )
     }
 
     pub fn destroy(self, gpu: &Gpu) {
         gpu.destroy_compute_pipeline(self.pipeline);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::mem::{offset_of, size_of};
-
-    // std430 offsets as declared in shaders-glsl/common/skinning.glsl and blocker_spheres/animate.comp.
-    #[test]
-    fn std430_layouts() {
-        assert_eq!(size_of::<GpuVertexSkin>(), 32);
-        assert_eq!(offset_of!(GpuVertexSkin, weights), 16);
-        assert_eq!(size_of::<GpuBlockerSphere>(), 64);
-        assert_eq!(offset_of!(GpuBlockerSphere, joints), 16);
-        assert_eq!(offset_of!(GpuBlockerSphere, weights), 32);
-        assert_eq!(offset_of!(GpuBlockerSphere, info), 48);
     }
 }

@@ -4,7 +4,7 @@
 use crate::gpu::{
     Binding, Gpu, GraphicsPipeline, GraphicsPipelineDesc, Image, ImageDesc, ImageFormat, Recorder, Result,
 };
-use crate::renderer::GpuScene;
+use crate::resources::GpuScene;
 
 /// The G-buffer every technique reads.
 pub struct GBuffer {
@@ -65,15 +65,15 @@ impl GBufferPass {
         rec.draw_indexed(
             &self.pipeline,
             &[
-                Binding::buffer("WorldVertices", &scene.world_vertices),
+                Binding::buffer("WorldVertices", &scene.geometry.world_vertices),
                 Binding::buffer("FrameBuf", &scene.frame),
-                Binding::buffer("VertexRadiance", &scene.vertex_radiance),
+                Binding::buffer("VertexRadiance", &scene.geometry.vertex_radiance),
             ],
             &[],
             &[&gbuffer.position, &gbuffer.normal, &gbuffer.vertex_radiance],
             Some(&gbuffer.depth),
-            &scene.indices,
-            scene.index_count,
+            &scene.geometry.indices,
+            scene.geometry.index_count,
         )
     }
     pub fn destroy(self, gpu: &Gpu) {

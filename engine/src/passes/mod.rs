@@ -3,7 +3,6 @@
 pub mod blocker_bvh;
 pub mod blocker_spheres;
 pub mod gbuffer;
-pub mod layout;
 pub mod shade;
 pub mod skin;
 pub mod thin_shells;

@@ -1,9 +1,9 @@
 //! `skin` pass (shaders-glsl/skin): object-space vertices → world space, every frame: linear blend
-//! skinning by `GpuScene::bones` (per-vertex `GpuScene::vertex_skins`; identity for rigid vertices), then
+//! skinning by `Geometry::bones` (per-vertex `Geometry::vertex_skins`; identity for rigid vertices), then
 //! the instance transform.
 
 use crate::gpu::{Binding, ComputePipeline, Gpu, Recorder, Result};
-use crate::renderer::GpuScene;
+use crate::resources::GpuScene;
 
 pub struct SkinPass {
     pipeline: ComputePipeline,
@@ -18,14 +18,14 @@ impl SkinPass {
         rec.dispatch(
             &self.pipeline,
             &[
-                Binding::buffer("Vertices", &scene.vertices),
-                Binding::buffer("Objects", &scene.objects),
-                Binding::buffer("WorldVertices", &scene.world_vertices),
-                Binding::buffer("Bones", &scene.bones),
-                Binding::buffer("VertexSkins", &scene.vertex_skins),
+                Binding::buffer("Vertices", &scene.geometry.vertices),
+                Binding::buffer("Objects", &scene.geometry.objects),
+                Binding::buffer("WorldVertices", &scene.geometry.world_vertices),
+                Binding::buffer("Bones", &scene.geometry.bones),
+                Binding::buffer("VertexSkins", &scene.geometry.vertex_skins),
             ],
-            bytemuck::cast_slice(&[scene.vertex_count, scene.bone_count]),
-            [scene.vertex_count, 1, 1],
+            bytemuck::cast_slice(&[scene.geometry.vertex_count, scene.geometry.bone_count]),
+            [scene.geometry.vertex_count, 1, 1],
         )
     }
     pub fn destroy(self, gpu: &Gpu) {

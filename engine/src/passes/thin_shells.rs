@@ -1,13 +1,13 @@
 //! `thin_shells` pass (shaders-glsl/thin_shells): every frame, the world-space triangles of the meshes
 //! marked thin ([`crate::scene::SceneBlockers::thin`], ISG §5) and the bounding sphere of each cluster
-//! of them, from `GpuScene::world_vertices` (written by the skin pass just before, so they follow
+//! of them, from `Geometry::world_vertices` (written by the skin pass just before, so they follow
 //! skinning and instance transforms). Nothing is read back.
 //!
-//! - `GpuScene::thin_indices`: per thin triangle its three scene vertex indices (built once here);
-//! - `GpuScene::thin_triangles`: per thin triangle its three world-space vertices ([`GpuThinTriangle`]),
+//! - `ThinResources::indices`: per thin triangle its three scene vertex indices (built once here);
+//! - `ThinResources::triangles`: per thin triangle its three world-space vertices (`GpuThinTriangle`),
 //!   rewritten every frame;
-//! - `GpuScene::thin_clusters`: clusters of at most [`CLUSTER_SIZE`] consecutive thin triangles
-//!   ([`GpuThinCluster`]: the triangle range, built once; the bounding sphere, rewritten every frame).
+//! - `ThinResources::clusters`: clusters of at most `CLUSTER_SIZE` consecutive thin triangles
+//!   (`GpuThinCluster`: the triangle range, built once; the bounding sphere, rewritten every frame).
 //!
 //! Clusters are built once per instance from the rest pose, spatially: the triangle centroids are split
 //! recursively at the median of the longest axis until at most 32 remain ([`clusters`]), so a cluster
@@ -15,108 +15,9 @@
 //! 3 × 3 quads) and stays compact while the surface moves smoothly. Its sphere (centre of the triangles' bounding box, radius
 //! the farthest vertex, padded by 1e-5 relative for f32 rounding) is what the shading passes cull with.
 
-use crate::gpu::{Binding, ComputePipeline, Gpu, GpuError, Recorder, Result};
-use crate::renderer::GpuScene;
-use crate::scene::Scene;
+use crate::gpu::{Binding, ComputePipeline, Gpu, Recorder, Result};
+use crate::resources::GpuScene;
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
-
-/// Triangles per cluster at most.
-pub const CLUSTER_SIZE: u32 = 32;
-
-/// `struct ThinTriangle` of shaders-glsl/common/thin.glsl: world-space vertices (w = 1).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuThinTriangle {
-    pub v0: [f32; 4],
-    pub v1: [f32; 4],
-    pub v2: [f32; 4],
-}
-
-/// `struct ThinCluster` of shaders-glsl/common/thin.glsl: `bound` = world-space bounding sphere
-/// (centre, radius; written every frame), `range` = (first triangle, triangle count, 0, 0).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuThinCluster {
-    pub bound: [f32; 4],
-    pub range: [u32; 4],
-}
-
-/// What [`GpuScene::upload`] puts in device memory for thin shells.
-pub struct ThinData {
-    /// Per thin triangle, its scene vertex indices (w unused), cluster by cluster.
-    pub indices: Vec<[u32; 4]>,
-    /// Clusters with their triangle ranges (bounds zero until the first frame).
-    pub clusters: Vec<GpuThinCluster>,
-}
-
-/// Gathers the thin triangles of `scene` (instances in order; vertex indices as in the scene upload)
-/// and their clusters. A thin mesh with a sphere set is an error (its triangles are its blockers).
-pub fn gather(scene: &Scene) -> Result<ThinData> {
-    let mut indices = Vec::new();
-    let mut out = Vec::new();
-    let mut base = 0u32;
-    for (i, inst) in scene.instances.iter().enumerate() {
-        let mesh = scene.meshes.get(inst.mesh).ok_or_else(|| GpuError::Other(format!("instance {i}: no mesh")))?;
-        let vertex_base = base;
-        base += mesh.positions.len() as u32;
-        if !scene.blockers.is_thin(inst.mesh) {
-            continue;
-        }
-        if scene.blockers.spheres_of(inst.mesh).is_some() {
-            return Err(GpuError::Other(format!(
-                "mesh '{}' is marked thin and has a sphere set: a thin mesh's triangles are its blockers",
-                mesh.name
-            )));
-        }
-        let tris: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        for chunk in clusters(&mesh.positions, &tris) {
-            out.push(GpuThinCluster { bound: [0.0; 4], range: [indices.len() as u32, chunk.len() as u32, 0, 0] });
-            indices.extend(chunk.iter().map(|&t| {
-                let [a, b, c] = tris[t];
-                [vertex_base + a, vertex_base + b, vertex_base + c, 0]
-            }));
-        }
-    }
-    Ok(ThinData { indices, clusters: out })
-}
-
-/// The clusters (triangle numbers, at most [`CLUSTER_SIZE`] each) of a mesh's triangles, by recursive
-/// median splits of the centroids along the longest axis of their bounding box.
-pub fn clusters(positions: &[Vec3], tris: &[[u32; 3]]) -> Vec<Vec<usize>> {
-    let centroid = |t: usize| {
-        (positions[tris[t][0] as usize] + positions[tris[t][1] as usize] + positions[tris[t][2] as usize]) / 3.0
-    };
-    let mut out = Vec::new();
-    let mut todo = vec![(0..tris.len()).collect::<Vec<usize>>()];
-    while let Some(mut part) = todo.pop() {
-        if part.len() <= CLUSTER_SIZE as usize {
-            if !part.is_empty() {
-                out.push(part);
-            }
-            continue;
-        }
-        let (lo, hi) = part
-            .iter()
-            .map(|&t| centroid(t))
-            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), c| (l.min(c), h.max(c)));
-        let e = hi - lo;
-        let axis = if e.x >= e.y && e.x >= e.z {
-            0
-        } else if e.y >= e.z {
-            1
-        } else {
-            2
-        };
-        let mid = part.len() / 2;
-        part.select_nth_unstable_by(mid, |&a, &b| centroid(a)[axis].total_cmp(&centroid(b)[axis]).then(a.cmp(&b)));
-        let right = part.split_off(mid);
-        // Pushed right first so the left half is split (and listed) first.
-        todo.push(right);
-        todo.push(part);
-    }
-    out
-}
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -133,72 +34,27 @@ impl ThinShellsPass {
         Ok(Self { pipeline: gpu.create_compute_pipeline("thin_shells/triangles.comp", &[])? })
     }
 
-    /// Writes `scene.thin_triangles` and the bounds of `scene.thin_clusters`; nothing is dispatched
+    /// Writes `scene.thin.triangles` and the bounds of `scene.thin.clusters`; nothing is dispatched
     /// when the scene has no thin mesh.
     pub fn record(&self, rec: &mut Recorder, scene: &GpuScene) -> Result<()> {
-        if scene.thin_cluster_count == 0 {
+        if scene.thin.cluster_count == 0 {
             return Ok(());
         }
         rec.begin_pass("thin_shells");
         rec.dispatch(
             &self.pipeline,
             &[
-                Binding::buffer("WorldVertices", &scene.world_vertices),
-                Binding::buffer("ThinIndices", &scene.thin_indices),
-                Binding::buffer("ThinTriangles", &scene.thin_triangles),
-                Binding::buffer("ThinClusters", &scene.thin_clusters),
+                Binding::buffer("WorldVertices", &scene.geometry.world_vertices),
+                Binding::buffer("ThinIndices", &scene.thin.indices),
+                Binding::buffer("ThinTriangles", &scene.thin.triangles),
+                Binding::buffer("ThinClusters", &scene.thin.clusters),
             ],
-            bytemuck::bytes_of(&Push { cluster_count: scene.thin_cluster_count }),
-            [scene.thin_cluster_count, 1, 1],
+            bytemuck::bytes_of(&Push { cluster_count: scene.thin.cluster_count }),
+            [scene.thin.cluster_count, 1, 1],
         )
     }
 
     pub fn destroy(self, gpu: &Gpu) {
         gpu.destroy_compute_pipeline(self.pipeline);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::mem::{offset_of, size_of};
-
-    // std430 offsets as declared in shaders-glsl/common/thin.glsl.
-    #[test]
-    fn std430_layouts() {
-        assert_eq!(size_of::<GpuThinTriangle>(), 48);
-        assert_eq!(offset_of!(GpuThinTriangle, v2), 32);
-        assert_eq!(size_of::<GpuThinCluster>(), 32);
-        assert_eq!(offset_of!(GpuThinCluster, range), 16);
-    }
-
-    #[test]
-    fn clusters_partition_the_triangles_into_compact_blocks() {
-        // A 24 × 24 grid of quads: each cluster spans a compact block, not a row strip.
-        let n = 24u32;
-        let positions: Vec<Vec3> =
-            (0..=n).flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, 0.0, j as f32))).collect();
-        let mut tris = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                let a = j * (n + 1) + i;
-                tris.push([a, a + n + 1, a + 1]);
-                tris.push([a + 1, a + n + 1, a + n + 2]);
-            }
-        }
-        let parts = clusters(&positions, &tris);
-        let mut seen = parts.concat();
-        seen.sort();
-        assert_eq!(seen, (0..tris.len()).collect::<Vec<_>>());
-        assert_eq!(parts.len(), 64);
-        for chunk in &parts {
-            assert!(chunk.len() <= CLUSTER_SIZE as usize);
-            let (lo, hi) = chunk
-                .iter()
-                .flat_map(|&t| tris[t].map(|v| positions[v as usize]))
-                .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(p), h.max(p)));
-            let e = hi - lo;
-            assert!(e.x <= 4.0 && e.z <= 4.0, "cluster extent {e}");
-        }
     }
 }

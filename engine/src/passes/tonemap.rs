@@ -1,7 +1,7 @@
 //! `tonemap` pass (shaders-glsl/tonemap): exposure, ACES fit, sRGB, into an RGBA8 image.
 
 use crate::gpu::{Binding, ComputePipeline, Gpu, Image, Recorder, Result};
-use crate::renderer::GpuScene;
+use crate::resources::GpuScene;
 
 pub struct TonemapPass {
     pipeline: ComputePipeline,

@@ -11,6 +11,7 @@
 #ifndef REFERENCE_INTEGRATE_GLSL
 #define REFERENCE_INTEGRATE_GLSL
 #include "../common.glsl"
+#include "../lights.glsl"
 #include "trace.glsl"
 #include "../../common/frame.glsl"
 #include "../../common/brdf.glsl"
@@ -20,7 +21,7 @@ layout(push_constant) uniform Params {
     uint sample_base;  // samples already accumulated (0: overwrite)
     uint samples;      // samples this dispatch
     uint seed;
-    uint light_count;
+    uint pad_lights;   // the light count is in the shared Lights buffer
     uint env_width;
     uint env_height;
     uint visibility;   // 0 triangles, 1 none (unoccluded), 2 blocker spheres
@@ -37,11 +38,6 @@ layout(std430, binding = 7) buffer AccumM2 { vec4 accum_m2[]; };
 // Marginal CDF over rows (H + 1 entries) and conditional CDFs per row (H × (W + 1)).
 layout(std430, binding = 8) readonly buffer EnvMarginal { float env_marginal[]; };
 layout(std430, binding = 9) readonly buffer EnvConditional { float env_conditional[]; };
-struct SphereLightGpu {
-    vec4 center_radius;
-    vec4 radiance;
-};
-layout(std430, binding = 12) readonly buffer Lights { SphereLightGpu lights[]; };
 layout(std430, binding = 13) buffer Diagnostics { uint nonfinite_samples; };
 
 // ---- random numbers: PCG (Jarzynski & Olano 2020, "Hash functions for GPU rendering") ----
@@ -208,7 +204,7 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     g_receiver_n = n;
     float p_spec = specular_choice(m);
     const float inf = 1e30;  // "no hit" distance (finite: no inf arithmetic in traversal)
-    float nl_count = float(params.light_count);
+    float nl_count = float(light_count);
     vec3 result = vec3(0.0);
 
     // 1. Environment sample.
@@ -234,8 +230,8 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     }
 
     // 2. Light sample: one light, chosen uniformly.
-    if (params.light_count > 0u) {
-        uint j = min(uint(rand(rng) * nl_count), params.light_count - 1u);
+    if (light_count > 0u) {
+        uint j = min(uint(rand(rng) * nl_count), light_count - 1u);
         float x0 = rand(rng), x1 = rand(rng);
         vec3 axis;
         float dist;
@@ -257,7 +253,7 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
         vec3 fc = brdf_cos(m, n, v, l);
         float pdf = brdf_pdf(m, p_spec, n, v, l);
         if (pdf > 0.0 && any(greaterThan(fc, vec3(0.0)))) {
-            float t_hit = params.light_count > 0u ? visible_until(o, l, inf) : (unoccluded(o, l, inf) ? inf : 0.0);
+            float t_hit = light_count > 0u ? visible_until(o, l, inf) : (unoccluded(o, l, inf) ? inf : 0.0);
             if (t_hit >= inf) {
                 ivec2 texel;
                 float pe = env_pdf(l, texel);
@@ -267,7 +263,7 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
                     result += fc * le * (power_weight(pdf, pe) / pdf);
                 }
             }
-            for (uint j = 0u; j < params.light_count; ++j) {
+            for (uint j = 0u; j < light_count; ++j) {
                 float t = light_hit(j, sp.position, l);
                 if (t <= 0.0 || t > t_hit) continue;
                 vec3 axis;

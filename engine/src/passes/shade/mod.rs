@@ -1,82 +1,196 @@
-//! Shading passes behind the technique interface (DESIGN.md §2): every technique reads the same
-//! inputs (G-buffer or world vertices, materials, environment, later the blocker buffers) and
-//! writes one radiance target, per pixel or per vertex, from the same GLSL `shade_point`.
+//! Shading passes behind the technique interface (DESIGN.md §2): every technique reads a named set of
+//! shared scene resources ([`ShadeInputs`]: frame, materials, environment, and the lights, blockers,
+//! thin shells or geometry it names in [`Reads`]) and writes one radiance target, per pixel or per
+//! vertex, from the same GLSL `shade_point`.
+//!
+//! **Adding a technique** = one entry in [`TECHNIQUES`] (its `mod` line and its [`TechniqueEntry`]),
+//! one Rust file here and one shader folder `shaders-glsl/shade/<name>/` with `pixel.comp` and
+//! `vertex.comp`. `--help`, the viewer's technique cycle, the report sweep's validation, the README's
+//! option tables and the parameterized tests (tests/tests/techniques.rs) all read the registry.
 
 pub mod isg;
 pub mod none;
 pub mod reference;
 
-use crate::gpu::{Binding, ComputePipeline, Gpu, Image, Recorder, Result};
+use crate::gpu::{Binding, Buffer, ComputePipeline, Gpu, GpuError, Image, Recorder, Result};
+use crate::options::{self, OptionSpec, Options};
 use crate::passes::gbuffer::GBuffer;
-use crate::renderer::GpuScene;
+use crate::resources::{BlockerResources, EnvironmentResources, Geometry, GpuScene, LightResources, ThinResources};
+
+/// The registry: every technique the engine knows, in the order `--help` and the viewer list them.
+pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, none::ENTRY, reference::ENTRY];
+
+/// One registered technique.
+pub struct TechniqueEntry {
+    pub name: &'static str,
+    /// One line for `--help` and the README.
+    pub summary: &'static str,
+    /// Its options (`--technique name:key=value,...`).
+    pub options: &'static [OptionSpec],
+    /// The shared resources it reads beyond frame, materials and environment.
+    pub reads: Reads,
+    /// What the parameterized tests hold it to (tests/tests/techniques.rs).
+    pub tolerances: Tolerances,
+    pub create: fn(&Gpu, &Options) -> Result<Box<dyn Technique>>,
+}
+
+/// The bounds a technique states for itself, checked by the registry's parameterized tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerances {
+    /// Furnace (Lambertian plane, constant environment, no blockers): relative RMSE against ρL.
+    pub furnace: f64,
+    /// No blockers: relative RMSE against `none` (its representation error; 0 for `none`).
+    pub unoccluded_vs_none: f64,
+    /// One sphere over a Lambertian plane under a constant environment: relative RMSE against the
+    /// closed form (the cap's cosine-weighted solid angle). `None`: the technique casts no shadows.
+    pub one_sphere: Option<f64>,
+    /// Monte Carlo: the test accumulates this many samples per pixel before comparing (0: not MC).
+    pub samples: u32,
+}
+
+/// The shared resources a technique reads beyond the frame constants, the materials and the
+/// environment (which every technique reads: the background shows the environment).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Reads {
+    pub lights: bool,
+    pub blockers: bool,
+    pub thin: bool,
+    /// Vertices, indices and instance transforms (e.g. the reference's triangle BVH).
+    pub geometry: bool,
+}
+
+impl TechniqueEntry {
+    /// Its `--help` block: the name, the summary and one line per option.
+    pub fn help(&self) -> String {
+        let mut s = format!(
+            "  {:<10} {}
+",
+            self.name, self.summary
+        );
+        s.push_str(&options::help_lines(self.options, "               "));
+        s
+    }
+}
+
+/// The registry entry of `name`.
+pub fn technique_entry(name: &str) -> Result<&'static TechniqueEntry> {
+    TECHNIQUES.iter().find(|t| t.name == name).ok_or_else(|| {
+        let names: Vec<&str> = TECHNIQUES.iter().map(|t| t.name).collect();
+        GpuError::Other(format!("unknown technique '{name}' (available: {})", names.join(", ")))
+    })
+}
+
+/// Parse a technique spec `name[:key=value,...]` against the registry (no GPU needed): unknown names,
+/// unknown keys and out-of-range values are errors naming them.
+pub fn parse_technique(spec: &str) -> Result<(&'static TechniqueEntry, Options)> {
+    let (name, pairs) = options::split_spec(spec).map_err(|e| GpuError::Other(format!("technique {e}")))?;
+    let entry = technique_entry(name)?;
+    let opts = options::parse(entry.name, entry.options, &pairs).map_err(|e| GpuError::Other(e.0))?;
+    Ok((entry, opts))
+}
+
+/// A spec with every option's effective value: `isg: diffuse=map, patches=32, ...` (the viewer's
+/// option display).
+pub fn describe_technique(spec: &str) -> Result<String> {
+    let (entry, opts) = parse_technique(spec)?;
+    let values = opts.describe(entry.options, ", ");
+    Ok(if values.is_empty() { entry.name.to_string() } else { format!("{}: {values}", entry.name) })
+}
+
+/// `--help` text of every registered technique.
+pub fn techniques_help() -> String {
+    TECHNIQUES.iter().map(TechniqueEntry::help).collect()
+}
+
+/// A technique from its spec, `name[:key=value,...]`.
+pub fn create_technique(gpu: &Gpu, spec: &str) -> Result<Box<dyn Technique>> {
+    let (entry, opts) = parse_technique(spec)?;
+    (entry.create)(gpu, &opts)
+}
 
 /// Where a technique writes radiance.
 #[derive(Clone, Copy)]
 pub enum ShadeTarget<'a> {
     /// One invocation per G-buffer pixel, into `radiance`.
     Pixel { gbuffer: &'a GBuffer, radiance: &'a Image },
-    /// One invocation per world-space vertex, into `GpuScene::vertex_radiance`.
-    Vertex,
+    /// One invocation per world-space vertex (written by the skin pass), into `radiance`.
+    Vertex { world_vertices: &'a Buffer, radiance: &'a Buffer, count: u32 },
 }
 
-/// The fixed inputs of every technique.
+impl<'a> ShadeTarget<'a> {
+    pub fn vertices(geometry: &'a Geometry) -> Self {
+        ShadeTarget::Vertex {
+            world_vertices: &geometry.world_vertices,
+            radiance: &geometry.vertex_radiance,
+            count: geometry.vertex_count,
+        }
+    }
+
+    /// Items shaded: pixels or vertices.
+    pub fn items(&self) -> u32 {
+        match self {
+            ShadeTarget::Pixel { radiance, .. } => radiance.desc.width * radiance.desc.height,
+            ShadeTarget::Vertex { count, .. } => *count,
+        }
+    }
+}
+
+/// The named inputs of a technique: frame, materials and environment always, the rest only when the
+/// technique's [`Reads`] names it (asking for one it did not name is an error, not a silent read).
 pub struct ShadeInputs<'a> {
-    pub scene: &'a GpuScene,
+    pub technique: &'static str,
+    pub frame: &'a Buffer,
+    pub materials: &'a Buffer,
+    pub environment: &'a EnvironmentResources,
+    lights: Option<&'a LightResources>,
+    blockers: Option<&'a BlockerResources>,
+    thin: Option<&'a ThinResources>,
+    geometry: Option<&'a Geometry>,
+}
+
+impl<'a> ShadeInputs<'a> {
+    /// The parts of `scene` that `technique` names in `reads`.
+    pub fn new(scene: &'a GpuScene, technique: &'static str, reads: Reads) -> Self {
+        Self {
+            technique,
+            frame: &scene.frame,
+            materials: &scene.materials,
+            environment: &scene.environment,
+            lights: reads.lights.then_some(&scene.lights),
+            blockers: reads.blockers.then_some(&scene.blockers),
+            thin: reads.thin.then_some(&scene.thin),
+            geometry: reads.geometry.then_some(&scene.geometry),
+        }
+    }
+
+    fn unnamed(&self, what: &str) -> GpuError {
+        GpuError::Other(format!("technique '{}' reads the {what} but does not name them in its Reads", self.technique))
+    }
+
+    pub fn lights(&self) -> Result<&'a LightResources> {
+        self.lights.ok_or_else(|| self.unnamed("lights"))
+    }
+    pub fn blockers(&self) -> Result<&'a BlockerResources> {
+        self.blockers.ok_or_else(|| self.unnamed("blockers"))
+    }
+    pub fn thin(&self) -> Result<&'a ThinResources> {
+        self.thin.ok_or_else(|| self.unnamed("thin shells"))
+    }
+    pub fn geometry(&self) -> Result<&'a Geometry> {
+        self.geometry.ok_or_else(|| self.unnamed("geometry"))
+    }
 }
 
 pub trait Technique {
     fn name(&self) -> &'static str;
-    /// Derive only the representations this technique reads (prefiltered maps, SG fit, SH, tables).
-    fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()>;
+    /// Derive only the representations this technique reads (SG fit, SH, tables), once per scene.
+    fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()>;
     /// Record shading into `target`.
     fn record(&self, rec: &mut Recorder, inputs: &ShadeInputs, target: ShadeTarget) -> Result<()>;
     fn destroy(self: Box<Self>, gpu: &Gpu);
     /// Technique-specific controls (e.g. the reference's sample counts), reached by downcasting.
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None
-    }
-}
-
-/// Names accepted by [`create_technique`].
-pub const TECHNIQUES: &[&str] = &["none", "isg", "reference"];
-
-/// Split a technique spec `name[:key=value,key=value...]` into its name and options.
-pub fn parse_technique_spec(spec: &str) -> Result<(&str, Vec<(String, String)>)> {
-    let (name, rest) = spec.split_once(':').unwrap_or((spec, ""));
-    let mut options = Vec::new();
-    for part in rest.split(',').filter(|p| !p.trim().is_empty()) {
-        let (k, v) = part.split_once('=').ok_or_else(|| {
-            crate::gpu::GpuError::Other(format!("technique '{spec}': option '{part}' is not key=value"))
-        })?;
-        options.push((k.trim().to_string(), v.trim().to_string()));
-    }
-    Ok((name.trim(), options))
-}
-
-/// A technique from its spec, `name[:key=value,...]`: `none`, `isg` (options in
-/// [`isg::IsgOptions`]) or `reference`; `lobes` and `shexp` plug in here.
-pub fn create_technique(gpu: &Gpu, spec: &str) -> Result<Box<dyn Technique>> {
-    let (name, options) = parse_technique_spec(spec)?;
-    let no_options = || -> Result<()> {
-        match options.first() {
-            Some((k, _)) => Err(crate::gpu::GpuError::Other(format!("technique '{name}' has no option '{k}'"))),
-            None => Ok(()),
-        }
-    };
-    match name {
-        "none" => {
-            no_options()?;
-            Ok(Box::new(none::NoShadows::new(gpu)?))
-        }
-        "isg" => Ok(Box::new(isg::Isg::new(gpu, isg::IsgOptions::parse(&options)?)?)),
-        "reference" => {
-            no_options()?;
-            Ok(Box::new(reference::Reference::new(gpu)?))
-        }
-        other => Err(crate::gpu::GpuError::Other(format!(
-            "unknown technique '{other}' (available: {})",
-            TECHNIQUES.join(", ")
-        ))),
     }
 }
 
@@ -112,11 +226,10 @@ impl TargetPipelines {
         target: ShadeTarget,
         extra: &[Binding],
     ) -> Result<()> {
-        let s = inputs.scene;
         let mut b = vec![
-            Binding::buffer("FrameBuf", &s.frame),
-            Binding::buffer("Materials", &s.materials),
-            Binding::sampled("env_map", &s.environment),
+            Binding::buffer("FrameBuf", inputs.frame),
+            Binding::buffer("Materials", inputs.materials),
+            Binding::sampled("env_map", &inputs.environment.image),
         ];
         b.extend_from_slice(extra);
         match target {
@@ -127,11 +240,11 @@ impl TargetPipelines {
                 b.push(Binding::storage_image("radiance", radiance));
                 rec.dispatch(&self.pixel, &b, &[], [radiance.desc.width, radiance.desc.height, 1])
             }
-            ShadeTarget::Vertex => {
+            ShadeTarget::Vertex { world_vertices, radiance, count } => {
                 rec.begin_pass(&format!("shade/{name} (per vertex)"));
-                b.push(Binding::buffer("WorldVertices", &s.world_vertices));
-                b.push(Binding::buffer("VertexRadiance", &s.vertex_radiance));
-                rec.dispatch(&self.vertex, &b, &[], [s.vertex_count, 1, 1])
+                b.push(Binding::buffer("WorldVertices", world_vertices));
+                b.push(Binding::buffer("VertexRadiance", radiance));
+                rec.dispatch(&self.vertex, &b, &[], [count, 1, 1])
             }
         }
     }
@@ -157,7 +270,7 @@ impl ComposePass {
             &self.pipeline,
             &[
                 Binding::buffer("FrameBuf", &scene.frame),
-                Binding::sampled("env_map", &scene.environment),
+                Binding::sampled("env_map", &scene.environment.image),
                 Binding::storage_image("gbuf_position", &gbuffer.position),
                 Binding::storage_image("gbuf_vertex_radiance", &gbuffer.vertex_radiance),
                 Binding::storage_image("radiance", radiance),

@@ -11,15 +11,30 @@
 //! reference's own standard error ([`ReferenceStats`]) and can stop when it is a stated fraction of
 //! the error being measured ([`converge`], [`converge_against`]).
 
-use super::{ShadeInputs, ShadeTarget, TargetPipelines, Technique};
+use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
-use crate::passes::layout::{FrameData, GpuObject, GpuVertex};
-use crate::renderer::{GpuScene, Renderer};
+use crate::resources::layout::{FrameData, GpuObject, GpuVertex};
+use crate::resources::Geometry;
 use crate::scene::triangle_bvh::{TriNode, TriangleBvh};
 use bytemuck::{Pod, Zeroable};
 use engine_math::envmap::{texel_solid_angle, LatLongMap};
 use glam::{Mat4, Vec3, Vec4};
 use std::cell::{Cell, RefCell};
+
+pub const ENTRY: TechniqueEntry = TechniqueEntry {
+    name: "reference",
+    summary: "Monte Carlo ground truth (environment, light and BRDF sampling; triangles, spheres or unoccluded)",
+    options: &[],
+    reads: Reads { lights: true, blockers: true, thin: true, geometry: true },
+    tolerances: Tolerances {
+        // Monte Carlo at `samples` per pixel: a few standard errors of the estimate.
+        furnace: 0.02,
+        unoccluded_vs_none: 0.05,
+        one_sphere: Some(0.05),
+        samples: 256,
+    },
+    create: |gpu, _| Ok(Box::new(Reference::new(gpu)?)),
+};
 
 /// Push constants (`Params` in integrate.glsl).
 #[repr(C)]
@@ -28,7 +43,8 @@ pub struct ReferenceParams {
     pub sample_base: u32,
     pub samples: u32,
     pub seed: u32,
-    pub light_count: u32,
+    /// Unused (the light count is in the shared `Lights` buffer).
+    pub pad_lights: u32,
     pub env_width: u32,
     pub env_height: u32,
     pub visibility: u32,
@@ -37,14 +53,6 @@ pub struct ReferenceParams {
     pub env_total: f32,
     pub sphere_count: u32,
     pub pad: f32,
-}
-
-/// `SphereLightGpu` in integrate.glsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuSphereLight {
-    pub center_radius: [f32; 4],
-    pub radiance: [f32; 4],
 }
 
 /// What blocks the rays.
@@ -186,19 +194,17 @@ struct Tables {
     conditional: Buffer,
     nodes: Buffer,
     triangles: Buffer,
-    lights: Buffer,
     /// Count of non-finite samples since `prepare` (host-visible).
     diagnostics: Buffer,
     vertex_accum: Accum,
     env_size: (u32, u32),
     env_total: f32,
-    light_count: u32,
     scene_diagonal: f32,
 }
 
 impl Tables {
     fn destroy(self, gpu: &Gpu) {
-        for b in [self.marginal, self.conditional, self.nodes, self.triangles, self.lights, self.diagnostics] {
+        for b in [self.marginal, self.conditional, self.nodes, self.triangles, self.diagnostics] {
             gpu.destroy_buffer(b);
         }
         self.vertex_accum.destroy(gpu);
@@ -207,7 +213,7 @@ impl Tables {
 
 /// World-space triangles of the scene, read back from the scene's device buffers (object-space
 /// vertices, indices, per-instance transforms), transformed as the `skin` pass does.
-fn world_triangles(gpu: &Gpu, scene: &GpuScene) -> Result<Vec<[Vec3; 3]>> {
+fn world_triangles(gpu: &Gpu, scene: &Geometry) -> Result<Vec<[Vec3; 3]>> {
     let vertices: Vec<GpuVertex> = gpu.read_buffer(&scene.vertices)?;
     let indices: Vec<u32> = gpu.read_buffer(&scene.indices)?;
     let objects: Vec<GpuObject> = gpu.read_buffer(&scene.objects)?;
@@ -368,9 +374,10 @@ impl Reference {
         self.reset();
     }
 
-    fn build_tables(gpu: &Gpu, scene: &GpuScene) -> Result<Tables> {
-        let env = EnvSampling::build(&scene.environment_cpu)?;
-        let triangles = world_triangles(gpu, scene)?;
+    fn build_tables(gpu: &Gpu, inputs: &ShadeInputs) -> Result<Tables> {
+        let env = EnvSampling::build(&inputs.environment.cpu)?;
+        let geometry = inputs.geometry()?;
+        let triangles = world_triangles(gpu, geometry)?;
         let bvh = TriangleBvh::build(&triangles);
         let depth = bvh.depth();
         if depth >= TRACE_STACK {
@@ -380,35 +387,18 @@ impl Reference {
         }
         let scene_diagonal =
             bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.max) - Vec3::from(n.min)).length());
-        let mut lights: Vec<GpuSphereLight> = Vec::with_capacity(scene.lights.len());
-        for (i, l) in scene.lights.iter().enumerate() {
-            if l.radius.is_nan() || l.radius <= 0.0 || !l.center.is_finite() || !l.radius.is_finite() {
-                return Err(GpuError::Other(format!(
-                    "light {i}: radius {} at {} is not a positive finite sphere",
-                    l.radius, l.center
-                )));
-            }
-            if !l.radiance.is_finite() || l.radiance.min_element() < 0.0 {
-                return Err(GpuError::Other(format!("light {i}: radiance {} is negative or not finite", l.radiance)));
-            }
-            lights.push(GpuSphereLight {
-                center_radius: l.center.extend(l.radius).to_array(),
-                radiance: l.radiance.extend(0.0).to_array(),
-            });
-        }
         let mut made: Vec<Buffer> = Vec::new();
         let built = (|| -> Result<()> {
             made.push(gpu.upload_buffer("reference-env-marginal", BufferDesc::gpu_only(0), &env.marginal)?);
             made.push(gpu.upload_buffer("reference-env-conditional", BufferDesc::gpu_only(0), &env.conditional)?);
             made.push(gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?);
             made.push(gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles)?);
-            made.push(gpu.upload_buffer("reference-lights", BufferDesc::gpu_only(0), &lights)?);
             let mut diag = gpu.create_buffer("reference-diagnostics", BufferDesc::readback(16))?;
             let zeroed = diag.write(&[0u32; 4]);
             made.push(diag);
             zeroed
         })();
-        let vertex_accum = built.and_then(|_| Accum::new(gpu, "reference-vertex-accum", scene.vertex_count));
+        let vertex_accum = built.and_then(|_| Accum::new(gpu, "reference-vertex-accum", geometry.vertex_count));
         let vertex_accum = match vertex_accum {
             Ok(a) => a,
             Err(e) => {
@@ -425,12 +415,10 @@ impl Reference {
             conditional: next()?,
             nodes: next()?,
             triangles: next()?,
-            lights: next()?,
             diagnostics: next()?,
             vertex_accum,
             env_size: (env.width as u32, env.height as u32),
             env_total: env.total as f32,
-            light_count: lights.len() as u32,
             scene_diagonal,
         })
     }
@@ -441,9 +429,9 @@ impl Technique for Reference {
         "reference"
     }
 
-    fn prepare(&mut self, gpu: &Gpu, scene: &GpuScene) -> Result<()> {
+    fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()> {
         self.destroy_tables(gpu);
-        self.tables = Some(Self::build_tables(gpu, scene)?);
+        self.tables = Some(Self::build_tables(gpu, inputs)?);
         self.view.set(None);
         Ok(())
     }
@@ -452,9 +440,8 @@ impl Technique for Reference {
         let Some(t) = &self.tables else {
             return Err(GpuError::Other("technique 'reference' recorded before prepare()".into()));
         };
-        let s = inputs.scene;
         // A new view (camera, resolution) restarts accumulation; exposure does not change radiance.
-        let mut view = s.frame.read::<FrameData>()?.first().copied().unwrap_or_default();
+        let mut view = inputs.frame.read::<FrameData>()?.first().copied().unwrap_or_default();
         view.params[1] = 0.0;
         if self.view.get() != Some(view) {
             self.reset();
@@ -464,7 +451,7 @@ impl Technique for Reference {
             ShadeTarget::Pixel { radiance, .. } => {
                 (&self.pixel_samples, radiance.desc.width * radiance.desc.height, "shade/reference")
             }
-            ShadeTarget::Vertex => (&self.vertex_samples, s.vertex_count, "shade/reference (per vertex)"),
+            ShadeTarget::Vertex { count, .. } => (&self.vertex_samples, count, "shade/reference (per vertex)"),
         };
         if let ShadeTarget::Pixel { .. } = target {
             let mut slot = self.pixel_accum.borrow_mut();
@@ -482,11 +469,12 @@ impl Technique for Reference {
         if base as u64 + samples as u64 > MAX_SAMPLES as u64 {
             return Err(GpuError::Other(format!("reference: {base} samples accumulated; at most {MAX_SAMPLES}")));
         }
+        let (blockers, thin, lights) = (inputs.blockers()?, inputs.thin()?, inputs.lights()?);
         let params = ReferenceParams {
             sample_base: base,
             samples,
             seed: self.options.seed,
-            light_count: t.light_count,
+            pad_lights: 0,
             env_width: t.env_size.0,
             env_height: t.env_size.1,
             visibility: match self.options.visibility {
@@ -497,7 +485,7 @@ impl Technique for Reference {
             item_count: items,
             ray_offset: self.options.ray_offset * t.scene_diagonal,
             env_total: t.env_total,
-            sphere_count: s.sphere_count,
+            sphere_count: blockers.sphere_count,
             pad: 0.0,
         };
         let pixel = self.pixel_accum.borrow();
@@ -505,24 +493,24 @@ impl Technique for Reference {
             ShadeTarget::Pixel { .. } => {
                 pixel.as_ref().ok_or_else(|| GpuError::Other("internal: pixel accumulation".into()))?
             }
-            ShadeTarget::Vertex => &t.vertex_accum,
+            ShadeTarget::Vertex { .. } => &t.vertex_accum,
         };
         let mut b = vec![
-            Binding::buffer("FrameBuf", &s.frame),
-            Binding::buffer("Materials", &s.materials),
-            Binding::sampled("env_map", &s.environment),
+            Binding::buffer("FrameBuf", inputs.frame),
+            Binding::buffer("Materials", inputs.materials),
+            Binding::sampled("env_map", &inputs.environment.image),
             Binding::buffer("AccumMean", &accum.mean),
             Binding::buffer("AccumM2", &accum.m2),
             Binding::buffer("EnvMarginal", &t.marginal),
             Binding::buffer("EnvConditional", &t.conditional),
             Binding::buffer("TriNodes", &t.nodes),
             Binding::buffer("Tris", &t.triangles),
-            Binding::buffer("Lights", &t.lights),
+            Binding::buffer("Lights", &lights.buffer),
             Binding::buffer("Diagnostics", &t.diagnostics),
-            Binding::buffer("BlockerSpheres", &s.spheres),
-            Binding::buffer("BvhNodes", &s.bvh_nodes),
-            Binding::buffer("ThinTriangles", &s.thin_triangles),
-            Binding::buffer("ThinClusters", &s.thin_clusters),
+            Binding::buffer("BlockerSpheres", &blockers.spheres),
+            Binding::buffer("BvhNodes", &blockers.bvh_nodes),
+            Binding::buffer("ThinTriangles", &thin.triangles),
+            Binding::buffer("ThinClusters", &thin.clusters),
         ];
         rec.begin_pass(name);
         let push = bytemuck::bytes_of(&params);
@@ -533,10 +521,10 @@ impl Technique for Reference {
                 b.push(Binding::storage_image("radiance", radiance));
                 rec.dispatch(&self.pipelines.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
             }
-            ShadeTarget::Vertex => {
-                b.push(Binding::buffer("WorldVertices", &s.world_vertices));
-                b.push(Binding::buffer("VertexRadiance", &s.vertex_radiance));
-                rec.dispatch(&self.pipelines.vertex, &b, push, [s.vertex_count, 1, 1])?;
+            ShadeTarget::Vertex { world_vertices, radiance, count } => {
+                b.push(Binding::buffer("WorldVertices", world_vertices));
+                b.push(Binding::buffer("VertexRadiance", radiance));
+                rec.dispatch(&self.pipelines.vertex, &b, push, [count, 1, 1])?;
             }
         }
         counter.set(base + samples);
@@ -554,74 +542,6 @@ impl Technique for Reference {
     }
 }
 
-/// The renderer's technique as the reference, if it is one.
-pub fn reference_mut(renderer: &mut Renderer) -> Option<&mut Reference> {
-    renderer.technique_mut().as_any_mut()?.downcast_mut::<Reference>()
-}
-
-/// How a [`converge`] run ended.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ConvergeReport {
-    pub samples: u32,
-    pub frames: u32,
-    /// [`ReferenceStats::relative_stderr`] at the end.
-    pub relative_stderr: f64,
-    /// The stopping rule held (false: `max_samples` was reached first).
-    pub converged: bool,
-}
-
-/// Render frames with the renderer's reference technique until `done(stats)` holds or
-/// `max_samples` samples per item are accumulated; returns the final statistics as well.
-pub fn converge_until(
-    gpu: &Gpu,
-    renderer: &mut Renderer,
-    max_samples: u32,
-    mut done: impl FnMut(&ReferenceStats) -> bool,
-) -> Result<(ConvergeReport, ReferenceStats)> {
-    let per_vertex = renderer.settings.per_vertex;
-    let mut frames = 0;
-    loop {
-        renderer.render(gpu)?;
-        frames += 1;
-        let r = reference_mut(renderer)
-            .ok_or_else(|| GpuError::Other("converge: the technique is not 'reference'".into()))?;
-        let stats = r.stats(gpu, per_vertex)?;
-        let converged = stats.samples >= 2 && done(&stats);
-        let next = stats.samples as u64 + r.options().samples_per_frame as u64;
-        if converged || next > max_samples.min(MAX_SAMPLES) as u64 {
-            let report =
-                ConvergeReport { samples: stats.samples, frames, relative_stderr: stats.relative_stderr(), converged };
-            return Ok((report, stats));
-        }
-    }
-}
-
-/// Accumulate until the reference's relative standard error is at most `target_rel_stderr`.
-pub fn converge(
-    gpu: &Gpu,
-    renderer: &mut Renderer,
-    target_rel_stderr: f64,
-    max_samples: u32,
-) -> Result<(ConvergeReport, ReferenceStats)> {
-    converge_until(gpu, renderer, max_samples, |s| s.relative_stderr() <= target_rel_stderr)
-}
-
-/// Accumulate until the reference's relative standard error is at most `fraction` of the relative
-/// RMSE of `measured` (one RGB value per item, e.g. a technique's image) against the reference:
-/// the reference is then good enough to measure that error.
-pub fn converge_against(
-    gpu: &Gpu,
-    renderer: &mut Renderer,
-    measured: &[[f32; 3]],
-    fraction: f64,
-    max_samples: u32,
-) -> Result<(ConvergeReport, ReferenceStats)> {
-    converge_until(gpu, renderer, max_samples, |s| {
-        let err = crate::metrics::relative_rmse_items(measured, &s.mean, &s.covered);
-        s.relative_stderr() <= fraction * err
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -633,8 +553,6 @@ mod tests {
         assert_eq!(offset_of!(ReferenceParams, ray_offset), 32);
         assert_eq!(offset_of!(ReferenceParams, env_total), 36);
         assert_eq!(offset_of!(ReferenceParams, sphere_count), 40);
-        assert_eq!(size_of::<GpuSphereLight>(), 32);
-        assert_eq!(offset_of!(GpuSphereLight, radiance), 16);
     }
 
     #[test]

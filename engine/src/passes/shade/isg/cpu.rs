@@ -1,0 +1,493 @@
+//! f64 twin of the per-point ISG integral (shaders-glsl/common/isg_visibility.glsl and
+//! shaders-glsl/shade/isg/shade.glsl). Blockers are a flat list of spheres: this equals the GPU
+//! traversal with `node_threshold = 0` (every node opened down to its leaves; leaves are culled by
+//! the same exact cone test).
+
+use super::options::{Evaluator, IsgOptions};
+use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
+use engine_math::isg::{isg_normalization, isg_paper, IsgLut};
+use engine_math::sg::{sg_product_log, Sg, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// The patch grid of one lobe (see isg_visibility.glsl).
+pub struct Grid {
+    pub x: DVec3,
+    pub y: DVec3,
+    pub z: DVec3,
+    pub lo: f64,
+    pub delta: f64,
+    pub side: usize,
+    pub cone: f64,
+}
+
+pub fn limiting_angle(lambda: f64, epsilon: f64) -> f64 {
+    let c = 1.0 + epsilon.ln() / lambda.max(1e-30);
+    if c <= 0.0 {
+        FRAC_PI_2
+    } else {
+        c.acos()
+    }
+}
+
+/// Duff et al. 2017 orthonormal basis (the same branch as the shader).
+pub fn basis(z: DVec3) -> (DVec3, DVec3) {
+    let s = if z.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (s + z.z);
+    let b = z.x * z.y * a;
+    (DVec3::new(1.0 + s * z.x * z.x * a, s * b, -s * z.x), DVec3::new(b, s + z.y * z.y * a, -z.y))
+}
+
+pub fn grid(axis: DVec3, lambda: f64, o: &IsgOptions) -> Grid {
+    let (x, y) = basis(axis);
+    let gamma = limiting_angle(lambda, o.epsilon);
+    let side = o.side.clamp(1, 32);
+    let c = gamma.cos();
+    Grid {
+        x,
+        y,
+        z: axis,
+        lo: FRAC_PI_2 - gamma,
+        delta: 2.0 * gamma / side as f64,
+        side,
+        cone: (c * c).clamp(0.0, 1.0).acos(),
+    }
+}
+
+/// Marks (row-major `mask[i][j]`) the patches whose centre lies within `psi` of unit `u`.
+pub fn mark_cap(mask: &mut [Vec<bool>], g: &Grid, u: DVec3, psi: f64) {
+    if psi >= PI {
+        mask.iter_mut().for_each(|r| r.iter_mut().for_each(|b| *b = true));
+        return;
+    }
+    let (ux, uy, uz) = (u.dot(g.x), u.dot(g.y), u.dot(g.z));
+    let rho = (ux * ux + uz * uz).sqrt();
+    let theta_c = rho.atan2(uy);
+    let phi_c = if rho > 0.0 { uz.atan2(ux) } else { 0.0 };
+    let last = (g.side - 1) as f64;
+    let i_lo = ((theta_c - psi - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
+    let i_hi = ((theta_c + psi - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
+    for i in i_lo..=i_hi {
+        let th = g.lo + (i as f64 + 0.5) * g.delta;
+        let denom = th.sin() * rho;
+        let rhs = psi.cos() - th.cos() * uy;
+        let row = &mut mask[i as usize];
+        if denom < 1e-7 {
+            if rhs <= 0.0 {
+                row.iter_mut().for_each(|b| *b = true);
+            }
+            continue;
+        }
+        let q = rhs / denom;
+        if q <= -1.0 {
+            row.iter_mut().for_each(|b| *b = true);
+        } else if q <= 1.0 {
+            let w = q.acos();
+            for k in -1..=1 {
+                let c = phi_c + 2.0 * PI * k as f64;
+                let j_lo = ((c - w - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
+                let j_hi = ((c + w - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
+                for j in j_lo..=j_hi {
+                    row[j as usize] = true;
+                }
+            }
+        }
+    }
+}
+
+/// Ŝ at a corner with the chosen evaluator.
+fn corner(theta: f64, phi: f64, lambda: f64, e: Evaluator, lut: &IsgLut) -> f64 {
+    match e {
+        Evaluator::Table => lut.eval(theta, phi, lambda),
+        Evaluator::Paper => isg_paper(theta, phi, lambda),
+    }
+}
+
+/// Sum of Ŝ over the marked patches (four corners per run of a row).
+pub fn occluded_sum(mask: &[Vec<bool>], g: &Grid, lambda: f64, e: Evaluator, lut: &IsgLut) -> f64 {
+    let mut sum = 0.0;
+    for (i, row) in mask.iter().enumerate() {
+        let t0 = g.lo + i as f64 * g.delta;
+        let t1 = t0 + g.delta;
+        let mut j = 0;
+        while j < g.side {
+            if !row[j] {
+                j += 1;
+                continue;
+            }
+            let j0 = j;
+            while j < g.side && row[j] {
+                j += 1;
+            }
+            let (p0, p1) = (g.lo + j0 as f64 * g.delta, g.lo + j as f64 * g.delta);
+            sum += corner(t1, p1, lambda, e, lut) - corner(t0, p1, lambda, e, lut) - corner(t1, p0, lambda, e, lut)
+                + corner(t0, p0, lambda, e, lut);
+        }
+    }
+    sum.max(0.0)
+}
+
+/// Marks grid `g`'s patches occluded, seen from receiver p (unit normal n), by the spheres in the
+/// grid's cone (after the self-shadowing rule) and by the thin triangles; whether any was marked.
+pub fn mark_blockers(
+    mask: &mut [Vec<bool>],
+    g: &Grid,
+    p: DVec3,
+    n: DVec3,
+    spheres: &[Sphere],
+    thin: &[[DVec3; 3]],
+) -> bool {
+    let cone = Cone::new(p, g.z, g.cone);
+    let mut marked = false;
+    for s in spheres {
+        if !cone_intersects_sphere(&cone, s) {
+            continue;
+        }
+        let Some(b) = blocker_for_receiver(p, n, s) else { continue };
+        if b.radius <= 0.0 {
+            continue;
+        }
+        let d = b.center - p;
+        let dist = d.length();
+        if dist <= 0.0 {
+            continue;
+        }
+        mark_cap(mask, g, d / dist, subtended_half_angle(p, &b));
+        marked = true;
+    }
+    super::thin::mark_thin(mask, g, p, n, thin) | marked
+}
+
+/// Occluded parts of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units: (by the
+/// receiver's tangent plane alone — V = 0 below it —, by the plane and the spheres together).
+pub fn occlusion(
+    p: DVec3,
+    n: DVec3,
+    axis: DVec3,
+    lambda: f64,
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    lut: &IsgLut,
+) -> (f64, f64) {
+    occlusion_with_thin(p, n, axis, lambda, o, spheres, &[], lut)
+}
+
+/// [`occlusion`] with thin-shell triangles (world space) among the blockers ([`super::thin`]).
+#[allow(clippy::too_many_arguments)]
+pub fn occlusion_with_thin(
+    p: DVec3,
+    n: DVec3,
+    axis: DVec3,
+    lambda: f64,
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    thin: &[[DVec3; 3]],
+    lut: &IsgLut,
+) -> (f64, f64) {
+    let g = grid(axis, lambda, o);
+    let mut mask = vec![vec![false; g.side]; g.side];
+    let mut horizon = 0.0;
+    if engine_blockers::geom::angle_between(axis, -n) <= g.cone + FRAC_PI_2 {
+        mark_cap(&mut mask, &g, -n, FRAC_PI_2);
+        horizon = occluded_sum(&mask, &g, lambda, o.evaluator, lut);
+    }
+    let marked = mark_blockers(&mut mask, &g, p, n, spheres, thin);
+    (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
+}
+
+/// Diffuse mode `map`: the occluded patches of the P × P grid over the hemisphere above n, each as
+/// (centre direction, cosine-weighted solid angle ∫_patch (n·ω) dω). The shader subtracts
+/// Σ L̄(centre) · weight from E(n), L̄ the environment prefiltered to the patch width.
+pub fn map_occluded_patches(p: DVec3, n: DVec3, o: &IsgOptions, spheres: &[Sphere]) -> Vec<(DVec3, f64)> {
+    map_occluded_patches_with_thin(p, n, o, spheres, &[])
+}
+
+/// [`map_occluded_patches`] with thin-shell triangles (world space) among the blockers
+/// ([`super::thin`]), marked into the same hemisphere grid.
+pub fn map_occluded_patches_with_thin(
+    p: DVec3,
+    n: DVec3,
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    thin: &[[DVec3; 3]],
+) -> Vec<(DVec3, f64)> {
+    let g = grid(n, 0.0, o);
+    let mut mask = vec![vec![false; g.side]; g.side];
+    mark_blockers(&mut mask, &g, p, n, spheres, thin);
+    let mut out = Vec::new();
+    for (i, row) in mask.iter().enumerate() {
+        let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
+        let sin2 = 0.5 * ((t1 - t1.sin() * t1.cos()) - (t0 - t0.sin() * t0.cos()));
+        let th = 0.5 * (t0 + t1);
+        for (j, _) in row.iter().enumerate().filter(|(_, &m)| m) {
+            let p0 = g.lo + j as f64 * g.delta;
+            let ph = p0 + 0.5 * g.delta;
+            let dir = g.x * (th.sin() * ph.cos()) + g.y * th.cos() + g.z * (th.sin() * ph.sin());
+            out.push((dir, sin2 * (p0.cos() - (p0 + g.delta).cos())));
+        }
+    }
+    out
+}
+
+/// Visible integral of the SG (axis, λ) with amplitude exp(log_mu): μ (F(λ) − H(λ) · occluded).
+fn visible_integral(log_mu: f64, lambda: f64, occluded: f64) -> f64 {
+    let full = 2.0 * PI * sphere_unit(lambda);
+    (log_mu.exp() * (full - isg_normalization(lambda) * occluded)).max(0.0)
+}
+
+/// (1 − e^{−2λ})/λ.
+fn sphere_unit(lambda: f64) -> f64 {
+    if lambda < 1e-8 {
+        2.0
+    } else {
+        -(-2.0 * lambda).exp_m1() / lambda
+    }
+}
+
+/// A shading point: world position, unit normal, unit view direction, material.
+pub struct Point {
+    pub position: DVec3,
+    pub normal: DVec3,
+    pub view: DVec3,
+    /// Diffuse albedo ρ (the BRDF's diffuse term is ρ/π).
+    pub diffuse: [f64; 3],
+    /// Specular k_s and Blinn-Phong exponent s (normalized lobe k_s (s+8)/(8π) (n·h)^s).
+    pub specular: [f64; 3],
+    pub shininess: f64,
+}
+
+/// Outgoing radiance (diffuse part and the visibility ratio of the specular lobe) of the
+/// technique at one point, with the environment as `lobes`. The specular term also needs the
+/// prefiltered environment, so it is returned as the ratio that multiplies it.
+pub fn shade_diffuse_and_ratio(
+    pt: &Point,
+    lobes: &[SgRgb],
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    lut: &IsgLut,
+) -> ([f64; 3], f64) {
+    shade_diffuse_and_ratio_with_thin(pt, lobes, o, spheres, &[], lut)
+}
+
+/// [`shade_diffuse_and_ratio`] with thin-shell triangles (world space) among the blockers.
+pub fn shade_diffuse_and_ratio_with_thin(
+    pt: &Point,
+    lobes: &[SgRgb],
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    thin: &[[DVec3; 3]],
+    lut: &IsgLut,
+) -> ([f64; 3], f64) {
+    let n = pt.normal;
+    let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
+    let mut e = [0.0; 3];
+    for l in lobes {
+        let prod = sg_product_log(&Sg::new(l.axis, l.lambda, 1.0), &cosine);
+        let axis = DVec3::from_array(prod.axis);
+        let (_, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
+        let v = visible_integral(prod.log_mu, prod.lambda, occ);
+        for (ec, mu) in e.iter_mut().zip(l.mu) {
+            *ec += mu * v;
+        }
+    }
+    let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
+    let ratio = if pt.specular.iter().all(|&k| k == 0.0) || (spheres.is_empty() && thin.is_empty()) {
+        1.0
+    } else {
+        let ndv = n.dot(pt.view).abs().max(1e-6);
+        let r = (2.0 * n.dot(pt.view) * n - pt.view).normalize();
+        let lambda = pt.shininess / (4.0 * ndv);
+        let prod = sg_product_log(&Sg::new([r.x, r.y, r.z], lambda, 1.0), &cosine);
+        let axis = DVec3::from_array(prod.axis);
+        let (hor, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
+        let full = 2.0 * PI * sphere_unit(prod.lambda);
+        let above = full - isg_normalization(prod.lambda) * hor;
+        if above > 0.0 {
+            ((full - isg_normalization(prod.lambda) * occ) / above).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    };
+    (diffuse, ratio)
+}
+
+/// Eq. 9 visibility ratio of one unit specular lobe (axis, λ) at (p, n): visible over
+/// upper-hemisphere integral of its product with the cosine lobe; 1 without blockers. Twin of
+/// `isg_lobe_visibility_ratio` (shaders-glsl/shade/isg/specular.glsl).
+pub fn lobe_visibility_ratio(
+    p: DVec3,
+    n: DVec3,
+    axis: DVec3,
+    lambda: f64,
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    lut: &IsgLut,
+) -> f64 {
+    if spheres.is_empty() {
+        return 1.0;
+    }
+    let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
+    let a = axis.normalize();
+    let prod = sg_product_log(&Sg::new([a.x, a.y, a.z], lambda, 1.0), &cosine);
+    let (hor, occ) = occlusion(p, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+    let full = 2.0 * PI * sphere_unit(prod.lambda);
+    let above = full - isg_normalization(prod.lambda) * hor;
+    if above > 0.0 {
+        ((full - isg_normalization(prod.lambda) * occ) / above).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+/// The ISG specular term of the lobed BRDFs (Cook-Torrance, Ashikhmin–Shirley): Σ_j w_j ∫ L G_j ·
+/// ratio_j, clamped at 0, with `integral(axis, λ)` the lobe's unshadowed lighting integral (the
+/// prefiltered maps on the GPU). Twin of `isg_specular_lobes`.
+pub fn specular(
+    position: DVec3,
+    n: DVec3,
+    lobes: &[engine_math::brdf::SpecularLobe],
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    lut: &IsgLut,
+    integral: impl Fn([f64; 3], f64) -> [f64; 3],
+) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for l in lobes.iter().filter(|l| l.weight.iter().any(|&w| w != 0.0)) {
+        let ratio = lobe_visibility_ratio(position, n, DVec3::from_array(l.axis), l.lambda, o, spheres, lut);
+        let i = integral(l.axis, l.lambda);
+        for c in 0..3 {
+            sum[c] += l.weight[c] * i[c] * ratio;
+        }
+    }
+    sum.map(|x| x.max(0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::passes::shade::isg::options::Diffuse;
+    use engine_blockers::geom::Sphere;
+    use engine_math::isg::IsgLut;
+    use glam::DVec3;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn limiting_angle_bounds_the_lobe() {
+        for lambda in [5.0, 50.0, 1e3, 1e5] {
+            let g = limiting_angle(lambda, 0.01);
+            assert!(((lambda * (g.cos() - 1.0)).exp() - 0.01).abs() < 1e-9);
+        }
+        assert_eq!(limiting_angle(1.0, 0.01), std::f64::consts::FRAC_PI_2);
+    }
+
+    /// The patch grid's marking of one cap matches its solid angle (ISG of a cap against quadrature).
+    #[test]
+    fn one_sphere_occlusion_matches_quadrature() {
+        let lut = IsgLut::generate_default();
+        let o = IsgOptions { side: 32, ..IsgOptions::default() };
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        for (lambda, axis, s) in [
+            (20.0, DVec3::Y, Sphere::new(DVec3::new(0.0, 3.0, 0.0), 1.0)),
+            (5.0, DVec3::new(0.3, 1.0, 0.1).normalize(), Sphere::new(DVec3::new(1.0, 2.0, 0.5), 0.8)),
+            (200.0, DVec3::new(0.0, 1.0, 0.2).normalize(), Sphere::new(DVec3::new(0.0, 4.0, 0.9), 0.4)),
+        ] {
+            let (hor, all) = occlusion(p, n, axis, lambda, &o, &[s], &lut);
+            // The sphere lies wholly above the tangent plane: its patches and the horizon's are disjoint.
+            let occ = (all - hor) * engine_math::isg::isg_normalization(lambda);
+            // Quadrature of the SG over the cap of directions hitting s.
+            let c = (s.center - p).normalize();
+            let cos_psi = (1.0 - (s.radius / s.center.length()).powi(2)).sqrt();
+            let (bx, by) = basis(c);
+            let (nt, nph) = (400, 400);
+            let psi = cos_psi.acos();
+            let mut exact = 0.0;
+            for i in 0..nt {
+                let t = (i as f64 + 0.5) / nt as f64 * psi;
+                for j in 0..nph {
+                    let ph = (j as f64 + 0.5) / nph as f64 * 2.0 * PI;
+                    let d = c * t.cos() + (bx * ph.cos() + by * ph.sin()) * t.sin();
+                    exact +=
+                        (lambda * (d.dot(axis) - 1.0)).exp() * t.sin() * (psi / nt as f64) * (2.0 * PI / nph as f64);
+                }
+            }
+            let rel = (occ - exact).abs() / exact;
+            assert!(rel < 0.05, "λ {lambda}: grid {occ} vs quadrature {exact} ({rel})");
+        }
+    }
+
+    /// Diffuse mode `map`: the patch weights tile the hemisphere's cosine integral (π) exactly, and a
+    /// sphere's occluded patches hold its cap's cosine-weighted solid angle π h r²/d³ up to the grid.
+    #[test]
+    fn map_patches_weigh_the_cosine() {
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        for side in [1, 7, 16, 32] {
+            let o = IsgOptions { side, diffuse: Diffuse::Map, ..IsgOptions::default() };
+            // A sphere covering the whole hemisphere (receiver inside, centre in front).
+            let all = map_occluded_patches(p, n, &o, &[Sphere::new(DVec3::new(0.0, 0.5, 0.0), 1.0)]);
+            assert_eq!(all.len(), side * side);
+            let sum: f64 = all.iter().map(|(_, w)| w).sum();
+            assert!((sum - PI).abs() < 1e-12, "P = {side}: Σ weights {sum}");
+            assert!(all.iter().all(|(d, w)| d.dot(n) > 0.0 && *w > 0.0 && (d.length() - 1.0).abs() < 1e-12));
+        }
+        let o = IsgOptions { side: 32, diffuse: Diffuse::Map, ..IsgOptions::default() };
+        for (c, r) in [(DVec3::new(0.0, 2.0, 0.0), 0.8), (DVec3::new(1.0, 1.5, 0.3), 0.6)] {
+            let got: f64 = map_occluded_patches(p, n, &o, &[Sphere::new(c, r)]).iter().map(|(_, w)| w).sum();
+            let d = c.length();
+            let want = PI * c.y * r * r / (d * d * d);
+            eprintln!("sphere {c:?} r {r}: {got} vs {want} ({:.2} %)", 100.0 * (got - want) / want);
+            assert!((got - want).abs() < 0.08 * want, "sphere {c:?} r {r}: {got} vs {want}");
+        }
+        assert!(map_occluded_patches(p, n, &o, &[]).is_empty());
+        assert!(map_occluded_patches(p, n, &o, &[Sphere::new(DVec3::new(0.0, -2.0, 0.0), 1.0)]).is_empty());
+    }
+
+    /// Hard cases of the per-lobe occlusion: finite, in [0, F/H] (the whole lobe), and ordered.
+    #[test]
+    fn hard_cases() {
+        let lut = IsgLut::generate_default();
+        let o = IsgOptions::default();
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        let bound =
+            |lambda: f64| 2.0 * PI * -(-2.0 * lambda).exp_m1() / lambda / engine_math::isg::isg_normalization(lambda);
+        let check = |v: f64, lambda: f64, what: &str| {
+            assert!(v.is_finite() && v >= 0.0 && v <= bound(lambda) * (1.0 + 1e-9), "{what}: {v} (λ {lambda})");
+            v
+        };
+        for lambda in [1e-4, 1e-2, 1.0, 100.0, 1e4, 1e5] {
+            // Receiver inside a sphere whose centre is in front: a tangent sphere covering the zenith.
+            let (horizon, inside) =
+                occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 0.3, 0.0), 1.0)], &lut);
+            check(inside, lambda, "inside, centre in front");
+            assert!(inside > horizon, "inside a sphere in front: some occlusion (λ {lambda})");
+            // Receiver inside a sphere whose centre is behind the tangent plane: eliminated.
+            let (h, behind) = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, -0.3, 0.0), 1.0)], &lut);
+            assert_eq!(behind, h, "centre behind T_p: eliminated (only the tangent plane occludes)");
+            // A blocker covering the whole cone: the whole grid is occluded (Ŝ over the grid ≤ 1).
+            let cover = occlusion(p, n, n, lambda, &o, &[Sphere::new(DVec3::new(0.0, 1.0, 0.0), 0.999)], &lut).1;
+            check(cover, lambda, "covering");
+            // Straddling the tangent plane, off to the side; lobe axis below the horizon.
+            let straddle = Sphere::new(DVec3::new(1.0, 0.1, 0.0), 0.5);
+            check(
+                occlusion(p, n, DVec3::new(1.0, -0.2, 0.0).normalize(), lambda, &o, &[straddle], &lut).1,
+                lambda,
+                "below",
+            );
+            // Hundreds of overlapping spheres: no more than the whole grid.
+            let many: Vec<Sphere> = (0..300)
+                .map(|i| {
+                    let t = i as f64 * 0.37;
+                    Sphere::new(DVec3::new(t.cos() * 0.5, 0.6 + 0.001 * i as f64, t.sin() * 0.5), 0.3)
+                })
+                .collect();
+            let all = check(occlusion(p, n, n, lambda, &o, &many, &lut).1, lambda, "many");
+            let one = occlusion(p, n, n, lambda, &o, &many[..1], &lut).1;
+            assert!(all >= one, "more blockers occlude no less");
+        }
+        // Zero-radius and coincident spheres block nothing / the same as one.
+        let s = Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.5);
+        let (h, a) = occlusion(p, n, n, 10.0, &o, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.0)], &lut);
+        assert_eq!(a, h, "a zero-radius sphere blocks nothing");
+        let once = occlusion(p, n, n, 10.0, &o, &[s], &lut);
+        assert_eq!(occlusion(p, n, n, 10.0, &o, &[s, s, s], &lut), once);
+    }
+}

@@ -1,0 +1,260 @@
+//! Technique `isg` (shaders-glsl/shade/isg): soft shadows from blocker spheres under all-frequency
+//! environment lighting with integral spherical Gaussians (Iwasaki et al. 2012).
+//!
+//! - Diffuse, default `diffuse=map` (ours): E(n) from the irradiance grid minus, over the occluded
+//!   patches of one P × P grid spanning the hemisphere above n, the prefiltered environment at each
+//!   patch centre (filter matched to the patch) times the patch's exact cosine-weighted solid angle.
+//!   The paper's diffuse (§3–4, Eq. 5–6, `diffuse=sg`): the environment as K spherical Gaussians (a
+//!   greedy least-squares fit, engine-math `fit_envmap_sgs`, refined), the clamped cosine as one SG;
+//!   each product lobe integrated against the visibility as its unoccluded integral minus the ISG of
+//!   its occluded patches; `diffuse=ratio` scales the exact E(n) by those lobes' visibility ratio.
+//! - Specular (Eq. 7–10): normalized Blinn-Phong as one warped SG, lighting from the SG-prefiltered
+//!   environment maps (Γ_L, the same maps as technique `none`), times the visibility ratio of Eq. 9
+//!   computed on the product of the BRDF lobe and the cosine lobe.
+//! - Occluded patches (§4.1, §5): a P × P grid within the limiting angle Γ (ε), the sphere BVH
+//!   traversed with cone culling and a projected-size threshold; the SHEXP §6.2 self-shadowing rules
+//!   for spheres near the receiver. See shaders-glsl/common/isg_visibility.glsl.
+//!
+//! Options (`--technique isg:patches=32,eps=0.01,threshold=1,evaluator=table,diffuse=map,K=10`):
+//! `patches` per side P (P² patches, 1..32), `eps` the limiting-angle threshold ε, `threshold` the
+//! BVH node size (in patch widths) below which a node is taken whole, `evaluator` `table` (ours,
+//! engine-math IsgLut) or `paper` (the paper's sigmoid fit), `diffuse` `map` (default), `ratio` or
+//! `sg` (the paper's Eq. 5), and for `ratio`/`sg`: `K` environment lobes (1..32) and `refine` rounds
+//! of coordinate descent on the greedy environment fit (6; 0 = greedy only).
+//!
+//! Thin shells (§5): triangles of meshes marked thin are rasterized into the patch grids (the
+//! hemisphere grid of `diffuse=map`, each lobe's grid otherwise, the specular lobe's always;
+//! shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
+//! Not modelled: anisotropic BRDF lobes. [`cpu`] is the f64 twin of the whole per-point integral.
+
+use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
+use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
+use crate::tables::MathTables;
+use engine_math::prefilter::resample;
+use engine_math::sg::{fit_envmap_sgs, refine_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
+use engine_math::table_gen::MathTable;
+
+pub mod cpu;
+pub mod options;
+pub mod thin;
+
+pub use options::{Diffuse, Evaluator, IsgOptions, OPTIONS, REFINE_ROUNDS};
+
+pub const ENTRY: TechniqueEntry = TechniqueEntry {
+    name: "isg",
+    summary: "integral spherical Gaussians (Iwasaki et al. 2012): soft shadows from the sphere set and thin shells",
+    options: OPTIONS,
+    reads: Reads { lights: true, blockers: true, thin: true, geometry: false },
+    tolerances: Tolerances {
+        // No blockers: the map diffuse equals `none` exactly (same irradiance grid, no occluded patch).
+        furnace: 1e-3,
+        unoccluded_vs_none: 1e-5,
+        // The patch grid's marking of one cap (tests/tests/isg.rs measures 0.25 % at 32 patches).
+        one_sphere: Some(0.01),
+        samples: 0,
+    },
+    create: |gpu, o| Ok(Box::new(Isg::new(gpu, IsgOptions::from_options(o))?)),
+};
+
+/// Resolution at which the environment is fitted with SGs (fit cost grows with texels × K).
+const FIT_SIZE: (usize, usize) = (128, 64);
+
+/// `IsgParams` in shaders-glsl/shade/isg/shade.glsl (std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuIsgParams {
+    /// K, patches per side, evaluator (0 table, 1 paper) | diffuse ratio (bit 1), sphere count.
+    pub ints: [u32; 4],
+    /// ln ε, node threshold, cosine-SG λ, cosine-SG μ.
+    pub floats: [f32; 4],
+    /// x: angular radius (radians) below which the shared gather of the diffuse lobes takes a BVH node
+    /// whole: `threshold` widths of the finest grid any diffuse product lobe can have (its sharpness
+    /// is at most max_k λ_k + λ_cos), computed once here instead of per point.
+    pub gather: [f32; 4],
+}
+
+/// One environment lobe: `(axis, λ)` then `(μ rgb, 0)` (std430 vec4 pairs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuSgLobe {
+    pub axis_lambda: [f32; 4],
+    pub mu: [f32; 4],
+}
+
+struct Prepared {
+    env_sgs: Buffer,
+    params: Buffer,
+    tables: MathTables,
+}
+
+pub struct Isg {
+    pipelines: TargetPipelines,
+    /// The variant with thin shells (`ISG_THIN_SHELLS`), built at the first prepare of a scene with a
+    /// thin mesh: scenes without one run shaders with no thin-shell code at all.
+    thin_pipelines: Option<TargetPipelines>,
+    pub options: IsgOptions,
+    prepared: Option<Prepared>,
+}
+
+impl Isg {
+    pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
+        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, thin_pipelines: None, options, prepared: None })
+    }
+
+    fn release(&mut self, gpu: &Gpu) {
+        if let Some(p) = self.prepared.take() {
+            gpu.destroy_buffer(p.env_sgs);
+            gpu.destroy_buffer(p.params);
+            p.tables.destroy(gpu);
+        }
+    }
+}
+
+impl Technique for Isg {
+    fn name(&self) -> &'static str {
+        "isg"
+    }
+
+    fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()> {
+        self.release(gpu);
+        let thin_count = inputs.thin()?.triangle_count;
+        if thin_count > 0 && self.thin_pipelines.is_none() {
+            self.thin_pipelines = Some(TargetPipelines::with_defines(gpu, "isg", &[("ISG_THIN_SHELLS", "1")])?);
+        }
+        // `diffuse=map` reads the prefiltered environment itself: no SG fit.
+        let fitted = match self.options.diffuse {
+            Diffuse::Map => Vec::new(),
+            _ => fit_environment(&inputs.environment.cpu, self.options.k, self.options.refine).0,
+        };
+        let lobes: Vec<GpuSgLobe> = fitted
+            .iter()
+            .map(|l| GpuSgLobe {
+                axis_lambda: [l.axis[0] as f32, l.axis[1] as f32, l.axis[2] as f32, l.lambda as f32],
+                mu: [l.mu[0] as f32, l.mu[1] as f32, l.mu[2] as f32, 0.0],
+            })
+            .collect();
+        let o = &self.options;
+        let params = GpuIsgParams {
+            ints: [
+                lobes.len() as u32,
+                o.side as u32,
+                (o.evaluator == Evaluator::Paper) as u32 | diffuse_code(o.diffuse) << 1,
+                inputs.blockers()?.sphere_count,
+            ],
+            floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
+            gather: [gather_take_whole(&fitted, o) as f32, 0.0, 0.0, 0.0],
+        };
+        let [env_sgs, params] = crate::resources::make_buffers(
+            gpu,
+            [&|| gpu.upload_buffer("isg-env-sgs", BufferDesc::gpu_only(0), &lobes_or_one(&lobes)), &|| {
+                gpu.upload_buffer("isg-params", BufferDesc::gpu_only(0), std::slice::from_ref(&params))
+            }],
+        )?;
+        match MathTables::load(gpu, &crate::tables::default_dir(), &[MathTable::IsgLut]) {
+            Ok(tables) => {
+                self.prepared = Some(Prepared { env_sgs, params, tables });
+                Ok(())
+            }
+            Err(e) => {
+                gpu.destroy_buffer(env_sgs);
+                gpu.destroy_buffer(params);
+                Err(GpuError::Other(e.to_string()))
+            }
+        }
+    }
+
+    fn record(&self, rec: &mut Recorder, inputs: &ShadeInputs, target: ShadeTarget) -> Result<()> {
+        let Some(p) = &self.prepared else {
+            return Err(GpuError::Other("technique 'isg' recorded before prepare()".into()));
+        };
+        let lut = p.tables.get(MathTable::IsgLut).ok_or_else(|| GpuError::Other("isg: table not loaded".into()))?;
+        let thin = inputs.thin()?;
+        let pipelines = match &self.thin_pipelines {
+            Some(t) if thin.triangle_count > 0 => t,
+            _ if thin.triangle_count > 0 => {
+                return Err(GpuError::Other("isg: a scene with thin meshes recorded before prepare()".into()))
+            }
+            _ => &self.pipelines,
+        };
+        let env = inputs.environment;
+        pipelines.record(
+            rec,
+            "isg",
+            inputs,
+            target,
+            &[
+                Binding::sampled("prefiltered_env", &env.prefiltered),
+                Binding::sampled("irradiance_map", &env.irradiance),
+                Binding::buffer("EnvSgs", &p.env_sgs),
+                Binding::buffer("IsgTable", &lut.buffer),
+                Binding::buffer("BvhNodes", &inputs.blockers()?.bvh_nodes),
+                Binding::buffer("IsgParams", &p.params),
+                Binding::buffer("ThinTriangles", &thin.triangles),
+                Binding::buffer("ThinClusters", &thin.clusters),
+                Binding::buffer("Lights", &inputs.lights()?.buffer),
+            ],
+        )
+    }
+
+    fn destroy(mut self: Box<Self>, gpu: &Gpu) {
+        self.release(gpu);
+        self.pipelines.destroy(gpu);
+        if let Some(t) = self.thin_pipelines.take() {
+            t.destroy(gpu);
+        }
+    }
+}
+
+/// The environment as K SGs: the greedy fit of a 128×64 resampling, refined by `refine` rounds of
+/// coordinate descent. Returns the lobes and the relative L2 error of the fit.
+pub fn fit_environment(env: &engine_math::envmap::LatLongMap, k: usize, refine: usize) -> (Vec<SgRgb>, f64) {
+    let small = resample(env, FIT_SIZE.0, FIT_SIZE.1);
+    let (fits, errors) = fit_envmap_sgs(&small, k);
+    let greedy = fits.last().cloned().unwrap_or_default();
+    let error = errors.last().copied().unwrap_or(1.0);
+    if refine == 0 || greedy.is_empty() {
+        return (greedy, error);
+    }
+    refine_envmap_sgs(&small, &greedy, refine)
+}
+
+/// The shared gather's node-size threshold (radians): `threshold` patch widths of the finest grid a
+/// diffuse product lobe can have. |λ_k a_k + λ_cos n| ≤ λ_k + λ_cos, and the grid narrows as λ grows.
+pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
+    if o.diffuse == Diffuse::Map {
+        // One grid over the hemisphere: patches π/P wide.
+        return o.node_threshold * std::f64::consts::PI / o.side.clamp(1, 32) as f64;
+    }
+    let sharpest = lobes.iter().map(|l| l.lambda).fold(0.0, f64::max) + COSINE_SG_LAMBDA;
+    o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
+}
+
+/// The shader's diffuse mode code (bits 1–2 of `IsgParams.ints.z`).
+fn diffuse_code(d: Diffuse) -> u32 {
+    match d {
+        Diffuse::Sg => 0,
+        Diffuse::Ratio => 1,
+        Diffuse::Map => 2,
+    }
+}
+
+/// A storage buffer may not be empty: K ≥ 1 always, but keep one zero lobe if a fit returned none.
+fn lobes_or_one(lobes: &[GpuSgLobe]) -> Vec<GpuSgLobe> {
+    if lobes.is_empty() {
+        vec![GpuSgLobe::default()]
+    } else {
+        lobes.to_vec()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layouts() {
+        assert_eq!(std::mem::size_of::<GpuIsgParams>(), 48);
+        assert_eq!(std::mem::offset_of!(GpuIsgParams, gather), 32);
+        assert_eq!(std::mem::size_of::<GpuSgLobe>(), 32);
+    }
+}

@@ -1,0 +1,121 @@
+//! Blocker and skinning records in device memory (std430 twins of shaders-glsl/common/skinning.glsl and
+//! blocker_spheres/animate.comp), gathered once per scene by [`gather`], and the blocker BVH's size
+//! limits. Written by the `blocker_spheres` and `blocker_bvh` passes every frame.
+
+use crate::gpu::{GpuError, Result};
+use crate::scene::blockers::bind_sphere_to_bones;
+use crate::scene::Scene;
+use bytemuck::{Pod, Zeroable};
+pub use engine_blockers::bvh::GpuBvhNode;
+
+/// Largest sphere count the `blocker_bvh` pass accepts: its refit step runs one invocation per
+/// workgroup (see refit.comp) and 65535 workgroups is the smallest `maxComputeWorkGroupCount[0]`
+/// Vulkan allows.
+pub const MAX_SPHERES: u32 = 65535;
+
+/// Bytes of a node array for `sphere_count` spheres (2n − 1 nodes; at least one node so that an empty
+/// scene still has a valid binding).
+pub fn node_buffer_size(sphere_count: u32) -> u64 {
+    (2 * sphere_count as u64).saturating_sub(1).max(1) * std::mem::size_of::<GpuBvhNode>() as u64
+}
+
+/// `struct VertexSkin` of shaders-glsl/common/skinning.glsl: four bone indices and weights per vertex
+/// (weights summing to 0: the vertex follows its instance only).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuVertexSkin {
+    pub joints: [u32; 4],
+    pub weights: [f32; 4],
+}
+
+/// `struct BlockerSphere` of shaders-glsl/blocker_spheres/animate.comp: rest sphere (object space),
+/// bone binding, and `info.x` = the object (instance) index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuBlockerSphere {
+    pub sphere: [f32; 4],
+    pub joints: [u32; 4],
+    pub weights: [f32; 4],
+    pub info: [u32; 4],
+}
+
+/// What [`GpuScene::upload`] puts in device memory for blockers and skinning.
+pub struct BlockerData {
+    /// One record per world-space sphere (instances in order, spheres of each in file order).
+    pub rest: Vec<GpuBlockerSphere>,
+    /// One record per scene vertex, in the vertex order of the upload (instances in order).
+    pub vertex_skins: Vec<GpuVertexSkin>,
+    /// Initial bone matrices (column-major).
+    pub bones: Vec<[f32; 16]>,
+}
+
+/// Gathers the blocker and skin records of `scene` (validated: skin lengths, bone indices, spheres).
+pub fn gather(scene: &Scene) -> Result<BlockerData> {
+    let b = &scene.blockers;
+    let bone_count = b.bones.len() as u32;
+    let mut rest = Vec::new();
+    let mut vertex_skins = Vec::new();
+    for (i, inst) in scene.instances.iter().enumerate() {
+        let Some(mesh) = scene.meshes.get(inst.mesh) else {
+            return Err(GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)));
+        };
+        let skin = b.skin_of(inst.mesh);
+        if let Some(skin) = skin {
+            if skin.joints.len() != mesh.positions.len() || skin.weights.len() != mesh.positions.len() {
+                return Err(GpuError::Other(format!(
+                    "mesh '{}': skin has {} joints / {} weights for {} vertices",
+                    mesh.name,
+                    skin.joints.len(),
+                    skin.weights.len(),
+                    mesh.positions.len()
+                )));
+            }
+            if let Some(j) = skin.joints.iter().flatten().find(|&&j| j >= bone_count) {
+                return Err(GpuError::Other(format!("mesh '{}': bone {j} of {bone_count}", mesh.name)));
+            }
+            if skin.weights.iter().flatten().any(|w| !w.is_finite() || *w < 0.0) {
+                return Err(GpuError::Other(format!("mesh '{}': negative or non-finite skin weight", mesh.name)));
+            }
+            vertex_skins.extend(
+                skin.joints.iter().zip(&skin.weights).map(|(&joints, &weights)| GpuVertexSkin { joints, weights }),
+            );
+        } else {
+            vertex_skins.extend(std::iter::repeat_n(GpuVertexSkin::default(), mesh.positions.len()));
+        }
+        for (k, s) in b.spheres_of(inst.mesh).unwrap_or(&[]).iter().enumerate() {
+            s.validate(k).map_err(|e| GpuError::Other(format!("mesh '{}': {e}", mesh.name)))?;
+            let (joints, weights) = match skin {
+                Some(skin) => bind_sphere_to_bones(s, &mesh.positions, skin),
+                None => ([0; 4], [0.0; 4]),
+            };
+            let c = s.center.as_vec3();
+            rest.push(GpuBlockerSphere {
+                sphere: [c.x, c.y, c.z, s.radius as f32],
+                joints,
+                weights,
+                info: [i as u32, 0, 0, 0],
+            });
+        }
+    }
+    if rest.len() > MAX_SPHERES as usize {
+        return Err(GpuError::Other(format!("{} blocker spheres, at most {}", rest.len(), MAX_SPHERES)));
+    }
+    Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    // std430 offsets as declared in shaders-glsl/common/skinning.glsl and blocker_spheres/animate.comp.
+    #[test]
+    fn std430_layouts() {
+        assert_eq!(size_of::<GpuVertexSkin>(), 32);
+        assert_eq!(offset_of!(GpuVertexSkin, weights), 16);
+        assert_eq!(size_of::<GpuBlockerSphere>(), 64);
+        assert_eq!(offset_of!(GpuBlockerSphere, joints), 16);
+        assert_eq!(offset_of!(GpuBlockerSphere, weights), 32);
+        assert_eq!(offset_of!(GpuBlockerSphere, info), 48);
+    }
+}

@@ -1,0 +1,74 @@
+//! The scene's spherical lights in device memory, shared by every technique: one buffer
+//! `Lights { uint count; SphereLight lights[]; }` (shaders-glsl/shade/lights.glsl), validated once.
+
+use crate::gpu::{Buffer, BufferDesc, Gpu, GpuError, Result};
+use crate::scene::SphereLight;
+use bytemuck::{Pod, Zeroable};
+
+/// `struct SphereLight` of shaders-glsl/shade/lights.glsl: world-space centre and radius, emitted
+/// radiance (linear RGB, w = 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuSphereLight {
+    pub center_radius: [f32; 4],
+    pub radiance: [f32; 4],
+}
+
+/// The header of the `Lights` buffer (std430: the array starts at byte 16).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLightsHeader {
+    pub count: u32,
+    pub pad: [u32; 3],
+}
+
+pub struct LightResources {
+    /// The lights as given (world space), for techniques' `prepare`.
+    pub cpu: Vec<SphereLight>,
+    /// Header + at least one light record (zero when there is none, so the binding is valid).
+    pub buffer: Buffer,
+    pub count: u32,
+}
+
+/// The device records of `lights`, each checked: a positive finite radius at a finite centre, a
+/// finite non-negative radiance. Errors name the light.
+pub fn gpu_lights(lights: &[SphereLight]) -> Result<Vec<GpuSphereLight>> {
+    lights
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            if l.radius.is_nan() || l.radius <= 0.0 || !l.center.is_finite() || !l.radius.is_finite() {
+                return Err(GpuError::Other(format!(
+                    "light {i}: radius {} at {} is not a positive finite sphere",
+                    l.radius, l.center
+                )));
+            }
+            if !l.radiance.is_finite() || l.radiance.min_element() < 0.0 {
+                return Err(GpuError::Other(format!("light {i}: radiance {} is negative or not finite", l.radiance)));
+            }
+            Ok(GpuSphereLight {
+                center_radius: l.center.extend(l.radius).to_array(),
+                radiance: l.radiance.extend(0.0).to_array(),
+            })
+        })
+        .collect()
+}
+
+impl LightResources {
+    pub fn new(gpu: &Gpu, lights: &[SphereLight]) -> Result<Self> {
+        let records = gpu_lights(lights)?;
+        let header = GpuLightsHeader { count: records.len() as u32, pad: [0; 3] };
+        let mut words: Vec<u32> = bytemuck::cast_slice(std::slice::from_ref(&header)).to_vec();
+        if records.is_empty() {
+            words.extend_from_slice(bytemuck::cast_slice(&[GpuSphereLight::default()]));
+        } else {
+            words.extend_from_slice(bytemuck::cast_slice(&records));
+        }
+        let buffer = gpu.upload_buffer("scene-lights", BufferDesc::gpu_only(0), &words)?;
+        Ok(Self { cpu: lights.to_vec(), buffer, count: records.len() as u32 })
+    }
+
+    pub fn destroy(self, gpu: &Gpu) {
+        gpu.destroy_buffer(self.buffer);
+    }
+}
