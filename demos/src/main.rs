@@ -12,8 +12,9 @@ struct Args {
     /// Scene: bunny (default), furnace, sphere.
     #[arg(long, default_value = "bunny")]
     scene: String,
-    /// Shading technique: none, reference.
-    #[arg(long, default_value = "none")]
+    /// Shading technique `NAME[:key=value,...]` (`--help` lists every registered technique and its
+    /// options).
+    #[arg(long, default_value = engine::renderer::DEFAULT_TECHNIQUE)]
     technique: String,
     /// Shade per vertex (interpolated) instead of per pixel.
     #[arg(long)]
@@ -63,10 +64,8 @@ struct Args {
     /// step 1/30 s, the viewer follows the clock.
     #[arg(long)]
     animate: bool,
-    /// Specular BRDF of material 0 (the bunny, sphere, plane or arm): `blinn-phong:s=1000,ks=0.5`,
-    /// `cook-torrance:roughness=0.1,ndf=beckmann|ggx,ks=0.5`,
-    /// `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0` (keys optional; see
-    /// engine::scene::Material::apply_brdf_spec).
+    /// Specular BRDF of material 0 (the bunny, sphere, plane or arm), `MODEL[:key=value,...]`
+    /// (`--help` lists the models and their keys).
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
     /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr; see
@@ -79,8 +78,30 @@ fn main() {
     demos::exit_on_error(run());
 }
 
+/// The arguments, with `--technique` and `--brdf` help generated from the technique registry and the
+/// BRDF schemas.
+fn parse_args() -> Args {
+    use clap::{CommandFactory, FromArgMatches};
+    let technique_help = format!(
+        "Shading technique NAME[:key=value,...] (default {}). Registered techniques and their options:\n{}",
+        engine::renderer::DEFAULT_TECHNIQUE,
+        engine::passes::shade::techniques_help()
+    );
+    let brdf_help = format!(
+        "Specular BRDF of material 0 (the bunny, sphere, plane or arm), MODEL[:key=value,...]; keys not \
+         given keep the material's values:\n{}",
+        engine::scene::brdf_help()
+    );
+    let cmd = Args::command()
+        .mut_arg("technique", |a| a.long_help(technique_help))
+        .mut_arg("brdf", |a| a.long_help(brdf_help));
+    Args::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+}
+
 fn run() -> anyhow::Result<()> {
-    let mut args = Args::parse();
+    let mut args = parse_args();
+    // Bad technique specs fail before any GPU work, naming the bad key.
+    engine::passes::shade::parse_technique(&args.technique)?;
     let mut scene = demos::build_scene(&args.scene, args.env.as_deref())?;
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;

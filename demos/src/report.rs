@@ -79,7 +79,21 @@ pub fn load_sweep(path: &Path, name: &str) -> Result<Sweep> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let mut file: SweepFile = serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     let names = file.keys().cloned().collect::<Vec<_>>().join(", ");
-    file.remove(name).with_context(|| format!("{}: no sweep '{name}' (has: {names})", path.display()))
+    let sweep = file.remove(name).with_context(|| format!("{}: no sweep '{name}' (has: {names})", path.display()))?;
+    validate_techniques(&sweep).with_context(|| format!("{}: sweep '{name}'", path.display()))?;
+    Ok(sweep)
+}
+
+/// Every technique spec of a sweep parses against the technique registry (before any GPU work), and
+/// the report rows are measured against a reference, so `reference` itself is not a sweep entry.
+pub fn validate_techniques(sweep: &Sweep) -> Result<()> {
+    for spec in &sweep.techniques {
+        let (entry, _) = engine::passes::shade::parse_technique(spec)?;
+        if entry.name == "reference" {
+            bail!("technique '{spec}': the reference is measured against itself; leave it out of the sweep");
+        }
+    }
+    Ok(())
 }
 
 /// The default config: tools/report/sweep.json.

@@ -29,7 +29,7 @@ impl Kind {
             Kind::Int { min, max } => format!("an integer in {min}..={max}"),
             Kind::Float { min, max, min_open, max_open } => {
                 let lo = if min_open { '(' } else { '[' };
-                let hi = if max_open { ')' } else { ']' };
+                let hi = if max_open || max.is_infinite() { ')' } else { ']' };
                 let max = if max.is_infinite() { "∞".to_string() } else { format!("{max}") };
                 format!("a number in {lo}{min}, {max}{hi}")
             }
@@ -138,7 +138,7 @@ pub fn parse(what: &str, schema: &[OptionSpec], pairs: &[(String, String)]) -> R
             }));
         };
         let value = parse_value(s.kind, v)
-            .ok_or_else(|| OptionError(format!("{what} option {}={v}: expected {}", s.key, s.kind.accepted())))?;
+            .ok_or_else(|| OptionError(format!("{what} option '{}' = '{v}': expected {}", s.key, s.kind.accepted())))?;
         values.retain(|(key, _, _)| *key != s.key);
         values.push((s.key, value, true));
     }
@@ -256,11 +256,11 @@ mod tests {
     #[test]
     fn errors_name_the_key_and_the_range() {
         for (spec, needle) in [
-            ("K=0", "K=0: expected an integer in 1..=32"),
-            ("K=2.5", "K=2.5"),
-            ("eps=1", "eps=1: expected a number in (0, 1)"),
-            ("eps=nan", "eps=nan"),
-            ("eps=inf", "eps=inf"),
+            ("K=0", "'K' = '0': expected an integer in 1..=32"),
+            ("K=2.5", "'K' = '2.5'"),
+            ("eps=1", "'eps' = '1': expected a number in (0, 1)"),
+            ("eps=nan", "'eps' = 'nan'"),
+            ("eps=inf", "'eps' = 'inf'"),
             ("mode=c", "one of a, b"),
             ("t=0/0/0", "direction"),
             ("t=1/2", "direction"),
@@ -278,7 +278,10 @@ mod tests {
         let t = markdown_table(SCHEMA);
         let h = help_lines(SCHEMA, "  ");
         for s in SCHEMA {
-            assert!(t.contains(&format!("`{}`", s.key)) && h.contains(&format!("{}=", s.key)));
+            assert!(
+                t.contains(&format!("`{}`", s.key)) && h.contains(&format!("{} (", s.key.split('=').next().unwrap()))
+                    || h.contains(&format!("{}=", s.key))
+            );
         }
     }
 }

@@ -9,6 +9,7 @@ pub use blockers::{SceneBlockers, Skin};
 pub use env::load_environment;
 pub use mesh::{compute_normals, load_gltf, load_obj, GltfScene, Mesh};
 
+use crate::options::{Kind, OptionSpec};
 use glam::{Mat4, Vec3};
 use std::path::PathBuf;
 
@@ -103,12 +104,17 @@ impl Material {
     /// `blinn-phong:s=1000,ks=0.5`, `cook-torrance:roughness=0.1,ndf=ggx,ks=0.5` (ndf `beckmann`
     /// (default) or `ggx`), `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0`. Keys not given
     /// keep the material's values (roughness 0.1, n_u = n_v = 100 when switching model). Every key
-    /// is range-checked; errors name the bad key.
+    /// is range-checked by the schemas of [`BRDF_MODELS`]; errors name the bad key.
     pub fn apply_brdf_spec(&mut self, spec: &str) -> std::result::Result<(), String> {
-        let (kind, rest) = spec.split_once(':').unwrap_or((spec, ""));
+        use crate::options::Value;
+        let (kind, pairs) = crate::options::split_spec(spec).map_err(|e| format!("--brdf {e}"))?;
+        let Some((_, _, schema)) = BRDF_MODELS.iter().find(|(name, _, _)| *name == kind) else {
+            let names: Vec<&str> = BRDF_MODELS.iter().map(|(n, _, _)| *n).collect();
+            return Err(format!("--brdf '{spec}': unknown model '{kind}' ({})", names.join(", ")));
+        };
+        let o = crate::options::parse(&format!("--brdf '{kind}'"), schema, &pairs).map_err(|e| e.0)?;
         let mut m = *self;
-        m.brdf = match kind.trim() {
-            "blinn-phong" => Brdf::BlinnPhong,
+        m.brdf = match kind {
             "cook-torrance" => match self.brdf {
                 b @ Brdf::CookTorrance { .. } => b,
                 _ => Brdf::CookTorrance { ndf: Ndf::Beckmann, roughness: 0.1 },
@@ -117,49 +123,119 @@ impl Material {
                 b @ Brdf::AshikhminShirley { .. } => b,
                 _ => Brdf::AshikhminShirley { nu: 100.0, nv: 100.0 },
             },
-            other => {
-                return Err(format!(
-                    "--brdf '{spec}': unknown model '{other}' (blinn-phong, cook-torrance, ashikhmin-shirley)"
-                ))
-            }
+            _ => Brdf::BlinnPhong,
         };
-        for part in rest.split(',').filter(|p| !p.trim().is_empty()) {
-            let (k, v) =
-                part.split_once('=').ok_or_else(|| format!("--brdf '{spec}': option '{part}' is not key=value"))?;
-            let (k, v) = (k.trim(), v.trim());
-            let num = |lo: f32, hi: f32| -> std::result::Result<f32, String> {
-                match v.parse::<f32>() {
-                    Ok(x) if x.is_finite() && x >= lo && x <= hi => Ok(x),
-                    _ => Err(format!("--brdf '{spec}': key '{k}' = '{v}' is not a number in [{lo}, {hi}]")),
+        let num = |key: &str| o.float_if_given(key).map(|x| x as f32);
+        if let Some(ks) = num("ks") {
+            m.specular = Vec3::splat(ks);
+        }
+        if let Some(kd) = num("kd") {
+            m.diffuse = Vec3::splat(kd);
+        }
+        if let Some(s) = num("s") {
+            m.shininess = s;
+        }
+        match &mut m.brdf {
+            Brdf::CookTorrance { roughness, ndf } => {
+                if let Some(r) = num("roughness") {
+                    *roughness = r;
                 }
-            };
-            match (k, &mut m.brdf) {
-                ("ks", _) => m.specular = Vec3::splat(num(0.0, 1.0)?),
-                ("kd", _) => m.diffuse = Vec3::splat(num(0.0, 1.0)?),
-                ("s", Brdf::BlinnPhong) => m.shininess = num(1e-3, 1e6)?,
-                ("roughness", Brdf::CookTorrance { roughness, .. }) => *roughness = num(1e-3, 1.0)?,
-                ("ndf", Brdf::CookTorrance { ndf, .. }) => {
-                    *ndf = match v {
-                        "beckmann" => Ndf::Beckmann,
-                        "ggx" => Ndf::Ggx,
-                        _ => return Err(format!("--brdf '{spec}': key 'ndf' = '{v}' (beckmann or ggx)")),
-                    }
+                if let Some(Value::Choice(n)) = o.get("ndf") {
+                    *ndf = if n == "ggx" { Ndf::Ggx } else { Ndf::Beckmann };
                 }
-                ("nu", Brdf::AshikhminShirley { nu, .. }) => *nu = num(1e-3, 1e6)?,
-                ("nv", Brdf::AshikhminShirley { nv, .. }) => *nv = num(1e-3, 1e6)?,
-                ("tangent", Brdf::AshikhminShirley { .. }) => {
-                    let c: Vec<f32> = v.split('/').filter_map(|x| x.trim().parse().ok()).collect();
-                    if c.len() != 3 || c.iter().any(|x| !x.is_finite()) || c.iter().all(|&x| x == 0.0) {
-                        return Err(format!("--brdf '{spec}': key 'tangent' = '{v}' is not x/y/z (non-zero)"));
-                    }
-                    m.tangent = Vec3::new(c[0], c[1], c[2]).normalize();
-                }
-                _ => return Err(format!("--brdf '{spec}': model '{}' has no key '{k}'", kind.trim())),
             }
+            Brdf::AshikhminShirley { nu, nv } => {
+                if let Some(x) = num("nu") {
+                    *nu = x;
+                }
+                if let Some(x) = num("nv") {
+                    *nv = x;
+                }
+                if let Some(Value::Direction(d)) = o.get("tangent") {
+                    m.tangent = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize();
+                }
+            }
+            Brdf::BlinnPhong => {}
         }
         *self = m;
         Ok(())
     }
+}
+
+const KS: OptionSpec = OptionSpec {
+    key: "ks",
+    aliases: &[],
+    kind: Kind::closed(0.0, 1.0),
+    default: None,
+    help: "specular reflectance k_s (F0 of the Fresnel term; 0: no specular layer)",
+};
+const KD: OptionSpec = OptionSpec {
+    key: "kd",
+    aliases: &[],
+    kind: Kind::closed(0.0, 1.0),
+    default: None,
+    help: "diffuse albedo ρ_d (grey)",
+};
+
+/// The `--brdf` models: name, one-line summary, option schema (no defaults: keys not given keep the
+/// material's values).
+pub const BRDF_MODELS: &[(&str, &str, &[OptionSpec])] = &[
+    (
+        "blinn-phong",
+        "k_s (s+8)/(8π) (n·h)^s",
+        &[
+            KS,
+            KD,
+            OptionSpec { key: "s", aliases: &[], kind: Kind::closed(1e-3, 1e6), default: None, help: "exponent s" },
+        ],
+    ),
+    (
+        "cook-torrance",
+        "D F G / (4 n·l n·v), Schlick F with F0 = k_s, separable Smith G",
+        &[
+            KS,
+            KD,
+            OptionSpec {
+                key: "roughness",
+                aliases: &[],
+                kind: Kind::closed(1e-3, 1.0),
+                default: None,
+                help: "NDF width α (used as α, not squared)",
+            },
+            OptionSpec {
+                key: "ndf",
+                aliases: &[],
+                kind: Kind::Choice(&["beckmann", "ggx"]),
+                default: None,
+                help: "normal distribution",
+            },
+        ],
+    ),
+    (
+        "ashikhmin-shirley",
+        "anisotropic: exponents n_u along the tangent, n_v along n × t",
+        &[
+            KS,
+            KD,
+            OptionSpec { key: "nu", aliases: &[], kind: Kind::closed(1e-3, 1e6), default: None, help: "exponent n_u" },
+            OptionSpec { key: "nv", aliases: &[], kind: Kind::closed(1e-3, 1e6), default: None, help: "exponent n_v" },
+            OptionSpec {
+                key: "tangent",
+                aliases: &[],
+                kind: Kind::Direction,
+                default: None,
+                help: "anisotropy direction (world space), projected on the tangent plane",
+            },
+        ],
+    ),
+];
+
+/// `--help` text of the `--brdf` models and their keys.
+pub fn brdf_help() -> String {
+    BRDF_MODELS
+        .iter()
+        .map(|(name, summary, schema)| format!("  {name}: {summary}\n{}", crate::options::help_lines(schema, "      ")))
+        .collect()
 }
 
 /// One drawable: a mesh, its object-to-world transform and its material index.
