@@ -70,6 +70,15 @@ pub fn relative_rmse(a: &[f32], b: &[f32], mask: impl Fn(usize) -> bool) -> f64 
     (num / den.max(f64::MIN_POSITIVE)).sqrt()
 }
 
+/// ∫_cap (n·ω)⁺ dω / π for a sphere (c, r) seen from p on a plane with normal +Y when the cap is
+/// wholly above the horizon: h r² / d³. None when the cap crosses the horizon.
+pub fn cap_cosine_fraction(p: DVec3, c: DVec3, r: f64) -> Option<f64> {
+    let d = c - p;
+    let dist = d.length();
+    let (alpha, beta) = ((r / dist).asin(), (d.y / dist).acos());
+    (alpha + beta <= std::f64::consts::FRAC_PI_2).then(|| d.y * r * r / (dist * dist * dist))
+}
+
 #[cfg(test)]
 mod tests {
     use super::relative_rmse;

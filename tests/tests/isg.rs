@@ -12,6 +12,7 @@ use glam::{DVec3, Vec3};
 const W: u32 = 48;
 const H: u32 = 36;
 
+use engine_tests::cap_cosine_fraction;
 use engine_tests::{assert_finite, render_with_gbuffer, rgb};
 
 fn settings(technique: &str) -> RenderSettings {
@@ -43,15 +44,6 @@ fn no_blockers_equals_none() {
     // The L2-fitted cosine SG integrates to 1.083 π; with the K = 10 fit of a smooth sky the
     // measured difference is about 8 %: allow 15 %.
     assert!(sg < 0.15, "diffuse=sg vs none: relative RMSE {sg}");
-}
-
-/// ∫_cap (n·ω)⁺ dω / π for a sphere (c, r) seen from p on a plane with normal +Y when the cap is
-/// wholly above the horizon: h r² / d³. None when the cap crosses the horizon.
-fn cap_cosine_fraction(p: DVec3, c: DVec3, r: f64) -> Option<f64> {
-    let d = c - p;
-    let dist = d.length();
-    let (alpha, beta) = ((r / dist).asin(), (d.y / dist).acos());
-    (alpha + beta <= std::f64::consts::FRAC_PI_2).then(|| d.y * r * r / (dist * dist * dist))
 }
 
 // One sphere blocker over a Lambertian plane under a constant environment L: the plane shades to
