@@ -3,9 +3,13 @@
 // Diffuse (Eq. 5–6): ρ/π Σ_k μ_k ∫ G_k G_cos V, each product lobe's visible integral by
 // isg_occlusion (common/isg_visibility.glsl). Specular (Eq. 7–10): the unshadowed prefiltered
 // Blinn-Phong term (as in `none`) times the visibility ratio of Eq. 9 on the product of the BRDF lobe
-// and the cosine lobe.
+// and the cosine lobe. Spherical lights (ours): each light's unshadowed term (../lights.glsl) times its
+// visibility V_j = 1 − Σ_occluded C_p / Σ C_p over the patches of the hemisphere grid above n whose
+// centres lie in the light's cap (the patch holding the cap's axis when no centre does), the same
+// grid and marking as `diffuse=map`, in every diffuse mode. f64 twin: isg::cpu::light_visibility.
 #include "../common.glsl"
 #include "../prefiltered.glsl"
+#include "../lights.glsl"
 #include "../../common/sg.glsl"
 #define BVH_STACK_SIZE 32
 #define ISG_MAX_BLOCKERS 32
@@ -51,17 +55,33 @@ float isg_full_integral(float lambda) {
     return 2.0 * PI * sg_unit_integral_over_2pi(lambda);
 }
 
-// Diffuse mode `map`: E(n) minus the light of the occluded patches of one P × P grid over the
-// hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
-// matched to the patch) times its exact cosine-weighted solid angle.
-vec3 isg_map_irradiance(vec3 p, vec3 n, IsgSettings st, uint spheres) {
-    vec3 irr = irradiance_lookup(irradiance_map, n);
-    if (spheres == 0u && !isg_thin_present()) return irr;
+// The hemisphere grid above n (Γ = π/2 around n) with the patches occluded by the blockers marked:
+// the grid of diffuse mode `map` and of the lights' visibility.
+IsgGrid isg_hemisphere_mask(vec3 p, vec3 n, IsgSettings st, uint spheres, out uint mask[ISG_MAX_SIDE]) {
     IsgGrid g = isg_grid(n, 0.0, st);
-    uint mask[ISG_MAX_SIDE];
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
     if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
     isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
+    return g;
+}
+
+// Cosine-weighted solid angle of the patches of `bits` in row i: a_i Σ_j (cos φ0_j − cos φ1_j).
+float isg_row_weight(IsgGrid g, int i, uint bits) {
+    float w = 0.0;
+    while (bits != 0u) {
+        int j = findLSB(bits);
+        bits &= bits - 1u;
+        float p0 = g.lo + float(j) * g.delta;
+        w += cos(p0) - cos(p0 + g.delta);
+    }
+    return isg_row_sin2(g, i) * w;
+}
+
+// Diffuse mode `map`: E(n) minus the light of the occluded patches of one P × P grid over the
+// hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
+// matched to the patch) times its exact cosine-weighted solid angle.
+vec3 isg_map_irradiance(vec3 n, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
+    vec3 irr = irradiance_lookup(irradiance_map, n);
     // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
     float lambda_f = 12.0 / (g.delta * g.delta);
     vec3 occluded = vec3(0.0);
@@ -83,6 +103,45 @@ vec3 isg_map_irradiance(vec3 p, vec3 n, IsgSettings st, uint spheres) {
         }
     }
     return max(irr - occluded, vec3(0.0));
+}
+
+// Visibility of a light's cap (axis, half-angle α; `outside` false: the whole sphere) in the
+// hemisphere grid: 1 − Σ_occluded C_p / Σ C_p over the patches whose centres lie in the cap; a cap
+// holding no patch centre takes the patch that holds its axis (1 when the axis is below the grid).
+float isg_light_visibility(IsgGrid g, uint mask[ISG_MAX_SIDE], bool outside, vec3 axis, float sin_alpha, float cos_alpha) {
+    uint cap[ISG_MAX_SIDE];
+    for (int i = 0; i < ISG_MAX_SIDE; ++i) cap[i] = 0u;
+    isg_mark_cap(cap, g, axis, outside ? atan(sin_alpha, cos_alpha) : ISG_PI);
+    float total = 0.0;
+    float occluded = 0.0;
+    for (int i = 0; i < g.side; ++i) {
+        if (cap[i] == 0u) continue;
+        total += isg_row_weight(g, i, cap[i]);
+        occluded += isg_row_weight(g, i, cap[i] & mask[i]);
+    }
+    if (total > 0.0) return clamp(1.0 - occluded / total, 0.0, 1.0);
+    float ux = dot(axis, g.x), uy = dot(axis, g.y), uz = dot(axis, g.z);
+    if (uz <= 0.0) return 1.0;
+    float theta = atan(sqrt(ux * ux + uz * uz), uy);
+    float phi = atan(uz, ux);
+    int i = clamp(int(floor((theta - g.lo) / g.delta)), 0, g.side - 1);
+    int j = clamp(int(floor((phi - g.lo) / g.delta)), 0, g.side - 1);
+    return (mask[i] >> uint(j) & 1u) != 0u ? 0.0 : 1.0;
+}
+
+// Σ over the lights of their unshadowed radiance times their visibility in the hemisphere grid.
+vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
+    SpecLobe lobes[BRDF_MAX_LOBES];
+    int count = brdf_specular_lobes(sp.material, sp.normal, sp.view, lobes);
+    vec3 sum = vec3(0.0);
+    for (uint j = 0u; j < light_count; ++j) {
+        vec3 axis;
+        float sa, ca;
+        bool outside = light_cap(j, sp.position, axis, sa, ca);
+        float v = occluders ? isg_light_visibility(g, mask, outside, axis, sa, ca) : 1.0;
+        if (v > 0.0) sum += v * light_unshadowed(sp, j, lobes, count, outside, axis, sa, ca);
+    }
+    return sum;
 }
 
 vec3 shade_point(ShadePoint sp) {
@@ -134,8 +193,14 @@ vec3 shade_point(ShadePoint sp) {
         }
         e = irr * ratio;
     }
-    if (diffuse_mode == 2u) e = isg_map_irradiance(sp.position, n, st, spheres);
+    // The hemisphere grid with its occluded patches, for `map` and for the lights.
+    bool occluders = spheres > 0u || isg_thin_present();
+    IsgGrid hemi;
+    uint mask[ISG_MAX_SIDE];
+    if (occluders && (diffuse_mode == 2u || light_count > 0u)) hemi = isg_hemisphere_mask(sp.position, n, st, spheres, mask);
+    if (diffuse_mode == 2u) e = occluders ? isg_map_irradiance(n, hemi, mask) : irradiance_lookup(irradiance_map, n);
     vec3 result = sp.material.diffuse.rgb / PI * e;
+    if (light_count > 0u) result += isg_lights(sp, occluders, hemi, mask);
 
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return result;
