@@ -13,5 +13,6 @@ pub mod rng;
 pub mod sg;
 pub mod sh;
 pub mod shexp;
+pub mod sphere_light;
 pub mod table_gen;
 pub mod tables;
