@@ -6,6 +6,7 @@
 pub mod brdf;
 pub mod envmap;
 pub mod isg;
+pub mod linalg;
 pub mod lobes;
 pub mod prefilter;
 pub mod quadrature;
