@@ -6,6 +6,7 @@
 pub mod brdf;
 pub mod envmap;
 pub mod isg;
+pub mod linalg;
 pub mod lobes;
 pub mod prefilter;
 pub mod quadrature;
@@ -13,5 +14,6 @@ pub mod rng;
 pub mod sg;
 pub mod sh;
 pub mod shexp;
+pub mod sphere_light;
 pub mod table_gen;
 pub mod tables;
