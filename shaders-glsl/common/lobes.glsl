@@ -1,8 +1,8 @@
 // Cosine lobes c(v) = s * max(a.v, 0)^e (Meunier et al. 2009, Eq. 4): f32 twins of the
-// GPU-relevant parts of engine/math/src/lobes.rs. Functions and constants only: tables are not
+// GPU-relevant parts of engine/math/src/lobes/ (lobes::X). Functions and constants only: tables are not
 // bound here; the lookup helpers return fractional table coordinates and take fetched values in.
 //
-// Table layouts (see lobes.rs for the generators):
+// Table layouts (see engine/math/src/lobes/ for the generators):
 //   product    [(i_e1 * 97 + i_e2) * 49 + i_alpha] -> (ln_pr_rel, e_r), exponents 16/decade, alpha 49 over [0, pi]
 //   hemisphere [i_e * 129 + i_y] -> (f_h, f_b), exponents 128/decade, y 129 over [-1, 1]
 //   cap        [i] -> k = e_cap * alpha^2, 1000 entries over alpha in [0, pi/2]

@@ -1,6 +1,6 @@
-// Real spherical harmonics, f32 twin of engine/math/src/sh.rs (evaluation, zonal rotation, dot).
+// Real spherical harmonics, f32 twin of engine/math/src/sh/ (evaluation, zonal rotation, dot).
 //
-// Conventions (as sh.rs): order n = bands 0..n-1, n² coefficients, index l² + l + m; polar axis +z;
+// Conventions (as engine/math/src/sh/): order n = bands 0..n-1, n² coefficients, index l² + l + m; polar axis +z;
 // no Condon–Shortley phase (y_1,-1 = K y, y_10 = K z, y_11 = K x); the constant 1 is (√(4π), 0, ...).
 // Orders 1..SH_MAX_ORDER (8); arrays are sized for the maximum and entries ≥ n² are set to 0.
 #ifndef SH_GLSL
@@ -13,7 +13,7 @@ const float SH_SQRT_4PI = 3.5449077018;
 
 // Basis of order n at direction d (normalized here; a zero vector gives +z).
 // Normalized associated-Legendre recurrences on Q_l^m = K_lm P_l^m(z) / sin^m θ with
-// C_m + i S_m = (x + i y)^m: no factorials, no trigonometry (sh.rs `eval_basis`).
+// C_m + i S_m = (x + i y)^m: no factorials, no trigonometry (sh/basis.rs `eval_basis`).
 void sh_eval(vec3 d, int n, out float y[SH_MAX_COEFFS]) {
     for (int i = 0; i < SH_MAX_COEFFS; ++i) {
         y[i] = 0.0;
@@ -62,7 +62,7 @@ void sh_eval(vec3 d, int n, out float y[SH_MAX_COEFFS]) {
 }
 
 // Rotate a zonal function with scaled coefficients f*_l = f_l √(4π/(2l+1)) from +z to `axis`:
-// f_lm = f*_l y_lm(axis) (SHEXP Eq. 34; sh.rs `zh_rotate_star_into`).
+// f_lm = f*_l y_lm(axis) (SHEXP Eq. 34; sh/zonal.rs `zh_rotate_star_into`).
 void sh_zh_rotate(float fstar[SH_MAX_ORDER], vec3 axis, int n, out float f[SH_MAX_COEFFS]) {
     sh_eval(axis, n, f);
     for (int l = 0; l < n; ++l) {
@@ -72,7 +72,7 @@ void sh_zh_rotate(float fstar[SH_MAX_ORDER], vec3 axis, int n, out float f[SH_MA
     }
 }
 
-// ∫ f̃ g̃ over the sphere for order-n vectors (sh.rs `dot`).
+// ∫ f̃ g̃ over the sphere for order-n vectors (sh/basis.rs `dot`).
 float sh_dot(float a[SH_MAX_COEFFS], float b[SH_MAX_COEFFS], int n) {
     float s = 0.0;
     for (int i = 0; i < n * n; ++i) {

@@ -98,7 +98,7 @@ const float SH4_OL_B[64] = float[](
 // END GENERATED
 
 // (a * b)_i = Σ Γ_ijk a_j b_k (SHEXP Eq. 3) over the stored entries j ≤ k (values halved on
-// j == k, so each entry adds v (a_j b_k + a_k b_j) with no branch); sh.rs `ShTensor::product_into`.
+// j == k, so each entry adds v (a_j b_k + a_k b_j) with no branch); sh/tensor.rs `ShTensor::product_into`.
 void sh4_product(float a[16], float b[16], out float c[16]) {
     for (int i = 0; i < 16; ++i) {
         c[i] = 0.0;

@@ -500,7 +500,7 @@ mod tests {
         a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
     }
 
-    /// The circle log (sh.rs, eigen method) round-trips through the exact exponential. No clipping
+    /// The circle log (sh/log.rs, eigen method) round-trips through the exact exponential. No clipping
     /// for a small circle: the log is exactly log(M_g)·1, so M_f = log(M_g) and the exact
     /// exponential gives back g up to the non-commutation of truncated products.
     #[test]
@@ -677,7 +677,7 @@ mod tests {
         let text = std::fs::read_to_string(path).expect("shaders-glsl/common/shexp.glsl");
         assert!(
             text.contains(&glsl_order4_tables(&ctx)),
-            "shexp.glsl tables drifted from sh.rs/shexp.rs: regenerate with print_glsl_tables"
+            "shexp.glsl tables drifted from sh/ and shexp.rs: regenerate with print_glsl_tables"
         );
         // The resampled OL table is the one the shader interpolates: uniform grid, same ends.
         let r = ctx.ol.resampled(GLSL_OL_SAMPLES);
