@@ -9,8 +9,8 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
 struct Args {
-    /// Scene: bunny (default), furnace, sphere.
-    #[arg(long, default_value = "bunny")]
+    /// Scene (the registry in demos/src/scenes).
+    #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
     /// Shading technique: none, reference.
     #[arg(long, default_value = "none")]
@@ -22,7 +22,8 @@ struct Args {
     width: u32,
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Environment map (.exr or .hdr) instead of the scene's.
+    /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (the furnace
+    /// refuses it: its constant environment is what it tests).
     #[arg(long)]
     env: Option<PathBuf>,
     /// Exposure multiplier before tone mapping.
@@ -59,9 +60,7 @@ struct Args {
     /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
     #[arg(long, value_name = "N")]
     capture: Option<u32>,
-    /// Animate the scene over time (bunny: turns on its base; arm: bends at the elbow): headless frames
-    /// step 1/30 s, the viewer follows the clock.
-    #[arg(long)]
+    #[arg(long, help = demos::scenes::animate_help())]
     animate: bool,
     /// Specular BRDF of material 0 (the bunny, sphere, plane or arm): `blinn-phong:s=1000,ks=0.5`,
     /// `cook-torrance:roughness=0.1,ndf=beckmann|ggx,ks=0.5`,
@@ -81,7 +80,8 @@ fn main() {
 
 fn run() -> anyhow::Result<()> {
     let mut args = Args::parse();
-    let mut scene = demos::build_scene(&args.scene, args.env.as_deref())?;
+    let entry = demos::scenes::find(&args.scene)?;
+    let mut scene = demos::scenes::build(entry.name, args.env.as_deref())?;
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
     }
@@ -122,7 +122,7 @@ fn run() -> anyhow::Result<()> {
         println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
         (args.out, args.name) = (dir.clone(), "engine".into());
     }
-    let animation = if args.animate { demos::Animation::for_scene(&args.scene, &scene) } else { None };
+    let animation = if args.animate { demos::Animation::for_entry(entry, &scene) } else { None };
     if animation.is_some() && args.technique.starts_with("reference") {
         eprintln!(
             "warning: the reference's triangle BVH is built once at the first pose; with --animate its \
@@ -130,7 +130,11 @@ fn run() -> anyhow::Result<()> {
         );
     }
     if args.animate && animation.is_none() {
-        eprintln!("warning: scene '{}' has no animation (bunny and arm do); rendering it static", args.scene);
+        eprintln!(
+            "warning: scene '{}' has no animation ({} do); rendering it static",
+            args.scene,
+            demos::scenes::animated_names()
+        );
     }
     let result = match event_loop {
         Some(el) => demos::viewer::run(
