@@ -13,13 +13,15 @@ struct Args {
     #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
     /// Shading technique: none, reference.
-    #[arg(long, default_value = "none")]
+    #[arg(long, default_value = "isg")]
     technique: String,
     /// Shade per vertex (interpolated) instead of per pixel.
     #[arg(long)]
     per_vertex: bool,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
     width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 480)]
     height: u32,
     /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (the furnace
@@ -29,7 +31,7 @@ struct Args {
     /// Exposure multiplier before tone mapping.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
-    /// Frames to render (times are reported as the median over them).
+    /// Frames to render (times are reported as the median over them; --spp sets it for the reference).
     #[arg(long, default_value_t = 5)]
     frames: u32,
     /// Output folder.
@@ -39,13 +41,13 @@ struct Args {
     #[arg(long, default_value = "default")]
     name: String,
     /// With --technique reference: accumulate N samples per pixel (at most 64 per frame; sets
-    /// --frames) and print the reference's relative standard error.
+    /// --frames) and print the reference's relative standard error (other techniques: ignored, with a warning).
     #[arg(long)]
     spp: Option<u32>,
     /// Use the Vulkan adapter whose name contains this text.
     #[arg(long)]
     device: Option<String>,
-    /// Report device memory before and after the frames (and allocations made by steady frames).
+    /// Print device memory after the first frame and the allocations the later (steady) frames made.
     #[arg(long)]
     memory: bool,
     /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
@@ -62,8 +64,8 @@ struct Args {
     capture: Option<u32>,
     #[arg(long, help = demos::scenes::animate_help())]
     animate: bool,
-    /// Specular BRDF of material 0 (the bunny, sphere, plane or arm): `blinn-phong:s=1000,ks=0.5`,
-    /// `cook-torrance:roughness=0.1,ndf=beckmann|ggx,ks=0.5`,
+    /// Specular BRDF of material 0 (the bunny, the sphere, the furnace plane or the arm):
+    /// `blinn-phong:s=1000,ks=0.5`, `cook-torrance:roughness=0.1,ndf=beckmann|ggx,ks=0.5`,
     /// `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0` (keys optional; see
     /// engine::scene::Material::apply_brdf_spec).
     #[arg(long, value_name = "SPEC")]
@@ -108,6 +110,9 @@ fn run() -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
+    if args.spp.is_some() && engine::passes::shade::reference::reference_mut(&mut renderer).is_none() {
+        eprintln!("warning: --spp applies to --technique reference only; ignored by '{}'", args.technique);
+    }
     if let (Some(spp), Some(r)) = (args.spp, engine::passes::shade::reference::reference_mut(&mut renderer)) {
         let per_frame = spp.clamp(1, 64);
         r.set_options(engine::passes::shade::reference::ReferenceOptions {
