@@ -9,8 +9,8 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
 struct Args {
-    /// Scene: bunny (default), furnace, sphere.
-    #[arg(long, default_value = "bunny")]
+    /// Scene (the registry in demos/src/scenes).
+    #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
     /// Shading technique `NAME[:key=value,...]` (`--help` lists every registered technique and its
     /// options).
@@ -19,17 +19,20 @@ struct Args {
     /// Shade per vertex (interpolated) instead of per pixel.
     #[arg(long)]
     per_vertex: bool,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
     width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Environment map (.exr or .hdr) instead of the scene's.
+    /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (the furnace
+    /// refuses it: its constant environment is what it tests).
     #[arg(long)]
     env: Option<PathBuf>,
     /// Exposure multiplier before tone mapping.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
-    /// Frames to render (times are reported as the median over them).
+    /// Frames to render (times are reported as the median over them; --spp sets it for the reference).
     #[arg(long, default_value_t = 5)]
     frames: u32,
     /// Output folder.
@@ -39,13 +42,13 @@ struct Args {
     #[arg(long, default_value = "default")]
     name: String,
     /// With --technique reference: accumulate N samples per pixel (at most 64 per frame; sets
-    /// --frames) and print the reference's relative standard error.
+    /// --frames) and print the reference's relative standard error (other techniques: ignored, with a warning).
     #[arg(long)]
     spp: Option<u32>,
     /// Use the Vulkan adapter whose name contains this text.
     #[arg(long)]
     device: Option<String>,
-    /// Report device memory before and after the frames (and allocations made by steady frames).
+    /// Print device memory after the first frame and the allocations the later (steady) frames made.
     #[arg(long)]
     memory: bool,
     /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
@@ -60,9 +63,7 @@ struct Args {
     /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
     #[arg(long, value_name = "N")]
     capture: Option<u32>,
-    /// Animate the scene over time (bunny: turns on its base; arm: bends at the elbow): headless frames
-    /// step 1/30 s, the viewer follows the clock.
-    #[arg(long)]
+    #[arg(long, help = demos::scenes::animate_help())]
     animate: bool,
     /// Specular BRDF of material 0 (the bunny, sphere, plane or arm), `MODEL[:key=value,...]`
     /// (`--help` lists the models and their keys).
@@ -102,7 +103,8 @@ fn run() -> anyhow::Result<()> {
     let mut args = parse_args();
     // Bad technique specs fail before any GPU work, naming the bad key.
     engine::passes::shade::parse_technique(&args.technique)?;
-    let mut scene = demos::build_scene(&args.scene, args.env.as_deref())?;
+    let entry = demos::scenes::find(&args.scene)?;
+    let mut scene = demos::scenes::build(entry.name, args.env.as_deref())?;
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
     }
@@ -129,6 +131,9 @@ fn run() -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
+    if args.spp.is_some() && engine::converge::reference_mut(&mut renderer).is_none() {
+        eprintln!("warning: --spp applies to --technique reference only; ignored by '{}'", args.technique);
+    }
     if let (Some(spp), Some(r)) = (args.spp, engine::converge::reference_mut(&mut renderer)) {
         let per_frame = spp.clamp(1, 64);
         r.set_options(engine::passes::shade::reference::ReferenceOptions {
@@ -143,7 +148,7 @@ fn run() -> anyhow::Result<()> {
         println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
         (args.out, args.name) = (dir.clone(), "engine".into());
     }
-    let animation = if args.animate { demos::Animation::for_scene(&args.scene, &scene) } else { None };
+    let animation = if args.animate { demos::Animation::for_entry(entry, &scene) } else { None };
     if animation.is_some() && args.technique.starts_with("reference") {
         eprintln!(
             "warning: the reference's triangle BVH is built once at the first pose; with --animate its \
@@ -151,7 +156,11 @@ fn run() -> anyhow::Result<()> {
         );
     }
     if args.animate && animation.is_none() {
-        eprintln!("warning: scene '{}' has no animation (bunny and arm do); rendering it static", args.scene);
+        eprintln!(
+            "warning: scene '{}' has no animation ({} do); rendering it static",
+            args.scene,
+            demos::scenes::animated_names()
+        );
     }
     let result = match event_loop {
         Some(el) => demos::viewer::run(

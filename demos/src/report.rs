@@ -49,7 +49,7 @@ pub struct Sweep {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
-    /// A `demo --scene` name.
+    /// A `demo --scene` name (a scene of the registry, demos/src/scenes).
     pub scene: String,
     /// Name in the results (default: the scene name).
     #[serde(default)]
@@ -174,6 +174,9 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     for s in sweep.scenes.iter().flat_map(shadings) {
         shading_flag(&s)?;
     }
+    for s in &sweep.scenes {
+        crate::scenes::find(&s.scene).with_context(|| format!("sweep scene '{}'", s.label()))?;
+    }
     let (w, h) = (sweep.width, sweep.height);
     let frames = sweep.frames.max(5);
     let total: usize = sweep.scenes.iter().map(|s| shadings(s).len() * sweep.techniques.len()).sum();
@@ -182,7 +185,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     let mut results = Results { rows: Vec::new(), references: Vec::new(), thumbnails: Vec::new() };
     for spec in &sweep.scenes {
         let label = spec.label().to_string();
-        let mut scene = crate::build_scene(&spec.scene, None)?;
+        let mut scene = crate::scenes::build(&spec.scene, None)?;
         if let Some(m) = scene.materials.first_mut() {
             if let Some(s) = spec.gloss {
                 m.shininess = s;

@@ -17,7 +17,8 @@ fn out_dir(tag: &str) -> PathBuf {
 fn capture_writes_every_pass_of_every_frame() {
     let out = out_dir("arm");
     let status = Command::new(env!("CARGO_BIN_EXE_demo"))
-        .args(["--scene", "arm", "--width", "48", "--height", "32", "--capture", &FRAMES.to_string(), "--name", "t"])
+        .args(["--scene", "arm", "--technique", "none", "--width", "48", "--height", "32", "--name", "t"])
+        .args(["--capture", &FRAMES.to_string()])
         .arg("--out")
         .arg(&out)
         .output()

@@ -1,9 +1,9 @@
-//! Mitsuba 3 export (`demo --export`): the bunny scene and a scene with a spherical light export to XML that a real
-//! XML parser reads, whose referenced files exist and parse (PLY headers and sizes match the scene's meshes, the EXR
-//! opens), with the camera, environment emitter, materials and light carrying the scene's values.
+//! Mitsuba 3 export (`demo --export`): the bunny scene and the lamp scene (spherical lights) export to XML that a
+//! real XML parser reads, whose referenced files exist and parse (PLY headers and sizes match the scene's meshes, the
+//! EXR opens), with the camera, environment emitter, materials and lights carrying the scene's values.
 
 use demos::export::{export_mitsuba, ExportOptions};
-use engine::scene::{Scene, SphereLight};
+use engine::scene::Scene;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -142,7 +142,7 @@ fn export_and_check(scene: &Scene, tag: &str) -> (PathBuf, String) {
 
 #[test]
 fn bunny_exports_as_mitsuba_scene() {
-    let scene = demos::bunny_scene(None).expect("bunny scene");
+    let scene = demos::scenes::build("bunny", None).expect("bunny scene");
     let (dir, text) = export_and_check(&scene, "bunny");
     // The glossy bunny is a blend of diffuse and a Beckmann conductor; the ground is plain diffuse.
     let doc = roxmltree::Document::parse(&text).unwrap();
@@ -158,37 +158,31 @@ fn bunny_exports_as_mitsuba_scene() {
 }
 
 #[test]
-fn sphere_light_exports_as_area_emitter() {
-    let mut scene = demos::sphere_over_plane(
-        engine::math::envmap::LatLongMap::constant(32, 16, [0.5; 3]),
-        0.5,
-        Vec3::new(0.0, 0.6, 0.0),
-        0.3,
-    );
-    scene.lights.push(SphereLight {
-        center: Vec3::new(1.0, 2.0, -0.5),
-        radius: 0.25,
-        radiance: Vec3::new(5.0, 4.0, 3.0),
-    });
-    scene.environment_intensity = 0.75;
+fn sphere_lights_export_as_area_emitters() {
+    // The registry's scene with spherical lights.
+    let scene = demos::scenes::build("lamp", None).expect("lamp scene");
+    assert!(scene.lights.len() >= 2 && scene.environment_intensity != 1.0, "lamp: lights and a dimmed environment");
     let (dir, text) = export_and_check(&scene, "light");
     let doc = roxmltree::Document::parse(&text).unwrap();
-    let light = doc
+    let lights: Vec<_> = doc
         .root_element()
         .children()
-        .find(|c| c.has_tag_name("shape") && c.attribute("type") == Some("sphere"))
-        .expect("sphere light shape");
-    let value = |tag: &str, name: &str| {
-        light
-            .descendants()
-            .find(|c| c.has_tag_name(tag) && c.attribute("name") == Some(name))
-            .and_then(|c| c.attribute("value"))
-            .unwrap_or_else(|| panic!("{tag} {name}"))
-    };
-    assert!(close(&floats(value("point", "center")), &[1.0, 2.0, -0.5]));
-    assert!(close(&floats(value("float", "radius")), &[0.25]));
-    let emitter = light.children().find(|c| c.has_tag_name("emitter")).expect("emitter");
-    assert_eq!(emitter.attribute("type"), Some("area"));
-    assert!(close(&floats(value("rgb", "radiance")), &[5.0, 4.0, 3.0]));
+        .filter(|c| c.has_tag_name("shape") && c.attribute("type") == Some("sphere"))
+        .collect();
+    assert_eq!(lights.len(), scene.lights.len(), "one sphere shape per light");
+    for (shape, l) in lights.iter().zip(&scene.lights) {
+        let value = |tag: &str, name: &str| {
+            shape
+                .descendants()
+                .find(|c| c.has_tag_name(tag) && c.attribute("name") == Some(name))
+                .and_then(|c| c.attribute("value"))
+                .unwrap_or_else(|| panic!("{tag} {name}"))
+        };
+        assert!(close(&floats(value("point", "center")), &l.center.to_array().map(f64::from)));
+        assert!(close(&floats(value("float", "radius")), &[l.radius as f64]));
+        let emitter = shape.children().find(|c| c.has_tag_name("emitter")).expect("emitter");
+        assert_eq!(emitter.attribute("type"), Some("area"));
+        assert!(close(&floats(value("rgb", "radiance")), &l.radiance.to_array().map(f64::from)));
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,4 +1,6 @@
-//! Shared helpers of the integration tests in tests/tests/.
+//! Shared helpers of the integration tests in tests/tests/, and their analytic scenes ([`fixtures`]).
+
+pub mod fixtures;
 
 use engine::gpu::Gpu;
 use engine::renderer::{RenderSettings, Renderer};

@@ -30,7 +30,7 @@ const BRDFS: &[&str] = &[
 /// Four spheres side by side, sphere j with material j = the BRDF `BRDFS[j]` (diffuse ρ_d = `kd`),
 /// under `env` (the sphere scene's smooth sky when None); no blockers.
 fn four_spheres(env: Option<LatLongMap>, kd: f32) -> Scene {
-    let sky = demos::sphere_scene(2);
+    let sky = demos::scenes::sphere::scene(2);
     let mut materials = Vec::new();
     for spec in BRDFS {
         let mut m = Material::diffuse(Vec3::splat(kd));
@@ -38,7 +38,7 @@ fn four_spheres(env: Option<LatLongMap>, kd: f32) -> Scene {
         materials.push(m);
     }
     Scene {
-        meshes: vec![demos::uv_sphere(24)],
+        meshes: vec![demos::scenes::shapes::uv_sphere(24)],
         materials,
         instances: (0..4)
             .map(|j| Instance {
@@ -282,7 +282,7 @@ fn isg_specular_matches_the_f64_twin() {
     let spheres = [Sphere::new(centre.as_dvec3(), radius as f64)];
     let o = IsgOptions { node_threshold: 0.0, ..IsgOptions::default() };
     for spec in &BRDFS[1..] {
-        let base = demos::sphere_over_plane(LatLongMap::constant(64, 32, [c; 3]), 0.0, centre, radius);
+        let base = engine_tests::fixtures::sphere_over_plane(LatLongMap::constant(64, 32, [c; 3]), 0.0, centre, radius);
         let scene = with_brdf(base, 0, &spec.replace("ks=0.5", "ks=0.9"), 0.0);
         let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("isg:threshold=0"));
         assert_finite(&hdr, spec);
@@ -325,7 +325,8 @@ fn extreme_parameters_stay_finite() {
         ("cook-torrance:roughness=0.001,ks=1", "cook-torrance:roughness=1,ndf=ggx,ks=1"),
         ("ashikhmin-shirley:nu=100000,nv=1,ks=1", "ashikhmin-shirley:nu=0.01,nv=0.01,ks=1"),
     ] {
-        let base = demos::sphere_over_plane(demos::sphere_scene(2).environment, 0.5, Vec3::new(0.0, 0.5, 0.0), 0.5);
+        let base =
+            engine_tests::fixtures::sphere_over_plane(demos::scenes::sphere::sky(), 0.5, Vec3::new(0.0, 0.5, 0.0), 0.5);
         let scene = with_brdf(with_brdf(base, 0, plane, 0.2), 1, sphere, 0.2);
         let spec = format!("{plane} / {sphere}");
         for technique in ["none", "isg"] {

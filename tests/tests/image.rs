@@ -49,7 +49,7 @@ fn check_against_reference(name: &str, w: u32, h: u32, ldr: &[u8], threshold: f3
 #[test]
 fn default_scene_matches_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::bunny_scene(None).expect("default scene");
+    let scene = demos::scenes::build("bunny", None).expect("default scene");
     let (w, h) = (128, 96);
     let settings = RenderSettings { width: w, height: h, technique: "none".into(), ..Default::default() };
     let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
@@ -63,7 +63,7 @@ fn default_scene_matches_reference() {
 #[test]
 fn isg_bunny_matches_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::bunny_scene(None).expect("default scene");
+    let scene = demos::scenes::build("bunny", None).expect("default scene");
     let (w, h) = (128, 96);
     let settings = RenderSettings { width: w, height: h, technique: "isg".into(), ..Default::default() };
     let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
@@ -77,7 +77,7 @@ fn default_scene_shows_the_environment() {
     // The bunny's lit side is brighter than its shaded side, and the ground is tinted by the
     // environment (not grey): checked on the linear image.
     let gpu = engine_tests::gpu();
-    let scene = demos::bunny_scene(None).expect("default scene");
+    let scene = demos::scenes::build("bunny", None).expect("default scene");
     let (w, h) = (128u32, 96u32);
     let (hdr, _) = engine_tests::render(
         &gpu,

@@ -25,7 +25,7 @@ fn settings(technique: &str) -> RenderSettings {
 #[test]
 fn no_blockers_equals_none() {
     let gpu = engine_tests::gpu();
-    let scene = demos::sphere_scene(48);
+    let scene = demos::scenes::sphere::scene(48);
     let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
     let (isg, _) = engine_tests::render(&gpu, &scene, settings("isg"));
     let (isg_ratio, _) = engine_tests::render(&gpu, &scene, settings("isg:diffuse=ratio"));
@@ -56,7 +56,7 @@ fn one_sphere_blocker_constant_environment() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.6f32, 1.5f32);
     let (c, r) = (Vec3::new(0.0, 0.8, 0.0), 0.5f32);
-    let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
+    let scene = engine_tests::fixtures::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
     for (spec, rmse_bound, max_bound) in [("isg", 0.005, 0.02), ("isg:diffuse=ratio,patches=16", 0.03, 0.10)] {
         let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings(spec));
         assert_finite(&hdr, spec);
@@ -89,9 +89,9 @@ fn one_sphere_blocker_constant_environment() {
 #[test]
 fn gpu_matches_the_f64_twin() {
     let gpu = engine_tests::gpu();
-    let sky = demos::sphere_scene(2).environment;
+    let sky = demos::scenes::sphere::sky();
     let (c, r) = (Vec3::new(0.2, 0.6, -0.1), 0.45f32);
-    let scene = demos::sphere_over_plane(sky.clone(), 0.7, c, r);
+    let scene = engine_tests::fixtures::sphere_over_plane(sky.clone(), 0.7, c, r);
     let lut = IsgLut::generate_default();
     let (fitted, _) = engine::passes::shade::isg::fit_environment(&sky, 10, engine::passes::shade::isg::REFINE_ROUNDS);
     // The GPU reads the lobes as f32.
@@ -149,7 +149,8 @@ fn map_diffuse_matches_the_f64_twin() {
     let (albedo, l) = (0.7f64, 1.3f64);
     // Above the plane, and straddling it (receivers inside the sphere: the self-shadowing rules).
     for (c, r) in [(Vec3::new(0.2, 0.6, -0.1), 0.45f32), (Vec3::new(0.2, 0.25, -0.1), 0.45)] {
-        let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l as f32; 3]), albedo as f32, c, r);
+        let scene =
+            engine_tests::fixtures::sphere_over_plane(LatLongMap::constant(64, 32, [l as f32; 3]), albedo as f32, c, r);
         let spheres = [Sphere::new(c.as_dvec3(), r as f64)];
         let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
         for side in [8usize, 32] {
@@ -184,8 +185,8 @@ fn map_diffuse_matches_the_f64_twin() {
 #[test]
 fn hundreds_of_overlapping_spheres() {
     let gpu = engine_tests::gpu();
-    let sky = demos::sphere_scene(2).environment;
-    let mut scene = demos::sphere_over_plane(sky, 0.7, Vec3::new(0.0, 0.3, 0.0), 0.6);
+    let sky = demos::scenes::sphere::sky();
+    let mut scene = engine_tests::fixtures::sphere_over_plane(sky, 0.7, Vec3::new(0.0, 0.3, 0.0), 0.6);
     let mut rng = engine::math::rng::Pcg32::new(7, 3);
     let spheres: Vec<Sphere> = (0..300)
         .map(|_| {

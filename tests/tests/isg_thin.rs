@@ -54,7 +54,13 @@ fn thin_triangles(scene: &Scene) -> Vec<[DVec3; 3]> {
 fn sheet_over_plane_matches_the_form_factor() {
     let gpu = engine_tests::gpu();
     let (albedo, l, half, height) = (0.6f32, 1.5f32, 0.4f64, 0.6f64);
-    let scene = demos::sheet_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, half as f32, height as f32, 8);
+    let scene = engine_tests::fixtures::sheet_over_plane(
+        LatLongMap::constant(64, 32, [l; 3]),
+        albedo,
+        half as f32,
+        height as f32,
+        8,
+    );
     let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("isg"));
     let (vtx, _) = engine_tests::render(&gpu, &scene, RenderSettings { per_vertex: true, ..settings("isg") });
     gpu.shutdown().expect("clean teardown");
@@ -122,13 +128,13 @@ fn gpu_matches_the_f64_twin_on_a_curved_sheet() {
 /// (curved) or flat, with a sphere of radius 0.2 under it (spheres and triangles combine).
 fn sheet_and_sphere(env: LatLongMap, droop: bool) -> (Scene, Vec<Sphere>) {
     let (c, r) = (Vec3::new(0.35, 0.25, 0.1), 0.2f32);
-    let mut scene = demos::sheet_over_plane(env, 0.7, 0.5, 0.7, 10);
+    let mut scene = engine_tests::fixtures::sheet_over_plane(env, 0.7, 0.5, 0.7, 10);
     // Droop the sheet (curved: its receivers see their neighbours near the horizon).
     for p in scene.meshes[1].positions.iter_mut().filter(|_| droop) {
         p.y = -0.15 * (1.0 - 4.0 * p.x * p.x) * (1.0 - 4.0 * p.z * p.z) + 0.1 * p.x;
     }
     scene.meshes[1].normals = engine::scene::compute_normals(&scene.meshes[1].positions, &scene.meshes[1].indices);
-    scene.meshes.push(demos::uv_sphere(16));
+    scene.meshes.push(demos::scenes::shapes::uv_sphere(16));
     scene.materials.push(engine::scene::Material::diffuse(Vec3::splat(0.5)));
     scene.instances.push(engine::scene::Instance {
         mesh: 2,
@@ -141,7 +147,7 @@ fn sheet_and_sphere(env: LatLongMap, droop: bool) -> (Scene, Vec<Sphere>) {
 
 fn twin_case(droop: bool) {
     let gpu = engine_tests::gpu();
-    let sky = demos::sphere_scene(2).environment;
+    let sky = demos::scenes::sphere::sky();
     let (scene, spheres) = sheet_and_sphere(sky.clone(), droop);
     let thin = thin_triangles(&scene);
     let lut = IsgLut::generate_default();
@@ -245,9 +251,9 @@ fn map_diffuse_matches_the_f64_twin_with_thin_triangles() {
 #[test]
 fn lobed_specular_sees_thin_triangles() {
     let gpu = engine_tests::gpu();
-    let sky = demos::sphere_scene(2).environment;
+    let sky = demos::scenes::sphere::sky();
     for brdf in ["cook-torrance:roughness=0.3,ks=0.6,kd=0", "ashikhmin-shirley:nu=50,nv=10,ks=0.6,kd=0"] {
-        let mut scene = demos::sheet_over_plane(sky.clone(), 0.7, 0.5, 0.7, 8);
+        let mut scene = engine_tests::fixtures::sheet_over_plane(sky.clone(), 0.7, 0.5, 0.7, 8);
         scene.materials[0].apply_brdf_spec(brdf).expect("brdf");
         let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
         let (img, _) = engine_tests::render(&gpu, &scene, settings("isg"));
@@ -274,11 +280,11 @@ fn lobed_specular_sees_thin_triangles() {
 #[test]
 fn hard_cases_and_the_thin_shells_pass() {
     let gpu = engine_tests::gpu();
-    let sky = demos::sphere_scene(2).environment;
-    let mut scene = demos::sheet_over_plane(sky, 0.7, 0.4, 0.5, 6);
+    let sky = demos::scenes::sphere::sky();
+    let mut scene = engine_tests::fixtures::sheet_over_plane(sky, 0.7, 0.4, 0.5, 6);
     // A vertical sheet cutting through the ground (straddling receivers' tangent plane) and edge-on to
     // the receivers in its plane, with degenerate triangles appended.
-    let mut wall = demos::ground_plane(0.5, 4);
+    let mut wall = demos::scenes::shapes::ground_plane(0.5, 4);
     for p in &mut wall.positions {
         *p = Vec3::new(0.6, p.z + 0.2, p.x);
     }
@@ -351,7 +357,7 @@ fn hard_cases_and_the_thin_shells_pass() {
 #[test]
 fn sheet_scene_against_the_sphere_proxy_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::build_scene("sheet", None).expect("scene");
+    let scene = demos::scenes::build("sheet", None).expect("scene");
     let mut bare = scene.clone();
     bare.instances.pop();
     bare.blockers.thin.clear();

@@ -76,7 +76,7 @@ fn check_bounds(stats: &ReferenceStats, expected: &[Option<([f64; 3], [f64; 3])>
 }
 
 fn plane_scene(env: LatLongMap, albedo: f32) -> Scene {
-    let mut s = demos::furnace_scene(albedo, 1.0);
+    let mut s = demos::scenes::furnace::scene(albedo, 1.0);
     s.environment = env;
     s
 }
@@ -116,7 +116,7 @@ const SPHERE_STACKS: u32 = 48;
 fn plane_and_sphere(env: LatLongMap, albedo: f32) -> Scene {
     let c = SPHERE_CENTRE.map(|x| x as f32);
     Scene {
-        meshes: vec![demos::ground_plane(1.0, 4), demos::uv_sphere(SPHERE_STACKS)],
+        meshes: vec![demos::scenes::shapes::ground_plane(1.0, 4), demos::scenes::shapes::uv_sphere(SPHERE_STACKS)],
         materials: vec![Material::diffuse(Vec3::splat(albedo)), Material::diffuse(Vec3::splat(0.8))],
         instances: vec![
             Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 },
@@ -137,7 +137,7 @@ fn plane_and_sphere(env: LatLongMap, albedo: f32) -> Scene {
 /// Radius of the largest sphere inside the tessellated unit sphere (its vertices lie on the unit
 /// sphere, so 1 bounds it from outside): the smallest distance from the centre to a face plane.
 fn inscribed_radius(stacks: u32) -> f64 {
-    let m = demos::uv_sphere(stacks);
+    let m = demos::scenes::shapes::uv_sphere(stacks);
     m.indices
         .chunks_exact(3)
         .map(|t| {
@@ -220,7 +220,7 @@ fn sphere_light_over_a_plane() {
     let (albedo, ls) = (0.7f32, 5.0f32);
     let c = [0.3, 0.9, -0.2];
     let r_light = 0.25;
-    let mut scene = demos::furnace_scene(albedo, 0.0);
+    let mut scene = demos::scenes::furnace::scene(albedo, 0.0);
     scene.lights.push(engine::scene::SphereLight {
         center: Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32),
         radius: r_light as f32,
@@ -340,7 +340,7 @@ fn per_vertex_constant_environment() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.4f32, 2.5f32);
     let mut scene = plane_scene(LatLongMap::constant(32, 16, [l; 3]), albedo);
-    scene.meshes[0] = demos::ground_plane(1.0, 16);
+    scene.meshes[0] = demos::scenes::shapes::ground_plane(1.0, 16);
     let settings =
         RenderSettings { width: 32, height: 24, technique: "reference".into(), per_vertex: true, ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
@@ -367,7 +367,7 @@ fn per_vertex_constant_environment() {
 #[ignore = "measurement, minutes on lavapipe"]
 fn bunny_proxy_error() {
     let gpu = engine_tests::gpu();
-    let scene = demos::bunny_scene(None).expect("bunny scene");
+    let scene = demos::scenes::build("bunny", None).expect("bunny scene");
     let (w, h) = (64, 48);
     let target = 1.5e-2;
     let run = |visibility| {

@@ -57,7 +57,7 @@ fn assert_finite(hdr: &[f32], what: &str) {
 fn furnace_every_technique() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.5f32, 2.0f32);
-    let scene = demos::furnace_scene(albedo, l);
+    let scene = demos::scenes::furnace::scene(albedo, l);
     for entry in TECHNIQUES {
         let (hdr, g) = render(&gpu, &scene, entry);
         assert_finite(&hdr, entry.name);
@@ -75,7 +75,7 @@ fn furnace_every_technique() {
 fn no_blockers_equals_none() {
     let gpu = engine_tests::gpu();
     // A convex diffuse sphere: nothing occludes it but its own tangent plane, in every technique.
-    let scene = demos::sphere_scene(24);
+    let scene = demos::scenes::sphere::scene(24);
     let none = TECHNIQUES.iter().find(|t| t.name == "none").expect("none is registered");
     let (base, g) = render(&gpu, &scene, none);
     for entry in TECHNIQUES {
@@ -94,7 +94,7 @@ fn one_sphere_over_a_plane_every_shadowing_technique() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.6f32, 1.5f32);
     let (c, r) = (Vec3::new(0.0, 0.8, 0.0), 0.5f32);
-    let scene = demos::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
+    let scene = engine_tests::fixtures::sphere_over_plane(LatLongMap::constant(64, 32, [l; 3]), albedo, c, r);
     for entry in TECHNIQUES {
         let Some(bound) = entry.tolerances.one_sphere else { continue };
         let (hdr, g) = render(&gpu, &scene, entry);
@@ -126,8 +126,12 @@ fn one_sphere_over_a_plane_every_shadowing_technique() {
 #[test]
 fn hard_scenes_stay_finite() {
     let gpu = engine_tests::gpu();
-    let mut scene =
-        demos::sphere_over_plane(LatLongMap::constant(64, 32, [1.0; 3]), 0.5, Vec3::new(0.0, 0.8, 0.0), 0.5);
+    let mut scene = engine_tests::fixtures::sphere_over_plane(
+        LatLongMap::constant(64, 32, [1.0; 3]),
+        0.5,
+        Vec3::new(0.0, 0.8, 0.0),
+        0.5,
+    );
     // Three hundred overlapping spheres around the blocker, some through the plane (plane receivers
     // inside spheres), one containing the camera's view of the sphere's surface (receivers inside),
     // one of zero radius and coincident duplicates.

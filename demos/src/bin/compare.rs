@@ -19,7 +19,8 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(name = "compare", about = "Techniques against the Monte Carlo reference: relative RMSE, FLIP, GPU time")]
 struct Args {
-    #[arg(long, default_value = "bunny")]
+    /// Scene (the registry in demos/src/scenes).
+    #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
     /// Environment map (.exr or .hdr) instead of the scene's.
     #[arg(long)]
@@ -76,7 +77,7 @@ fn main() {
 
 fn run() -> Result<()> {
     let args = Args::parse();
-    let mut scene = demos::build_scene(&args.scene, args.env.as_deref())?;
+    let mut scene = demos::scenes::build(&args.scene, args.env.as_deref())?;
     if let Some(m) = scene.materials.first_mut() {
         if let Some(s) = args.gloss {
             m.shininess = s;

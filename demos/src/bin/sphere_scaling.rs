@@ -17,7 +17,8 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(name = "sphere_scaling", about = "Shading cost against the number of blocker spheres")]
 struct Args {
-    #[arg(long, default_value = "bunny")]
+    /// Scene (the registry in demos/src/scenes).
+    #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
     /// Sphere counts (comma-separated).
     #[arg(long, value_delimiter = ',', default_values_t = vec![16, 32, 64, 128, 256, 512, 1024])]
@@ -86,7 +87,7 @@ fn run() -> Result<()> {
 fn measure_all(gpu: &Gpu, args: &Args) -> Result<(String, Vec<(usize, Vec<f64>)>)> {
     let mut rows = Vec::new();
     for &count in &args.counts {
-        let mut scene = demos::build_scene(&args.scene, None)?;
+        let mut scene = demos::scenes::build(&args.scene, None)?;
         measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
         let mut ms = Vec::new();
         for spec in &args.techniques {

@@ -6,8 +6,16 @@ use super::{Result, SceneError};
 use engine_math::envmap::LatLongMap;
 use std::path::Path;
 
-/// Load an equirectangular environment map (`.exr` or `.hdr`), row 0 at the zenith.
+/// Load an equirectangular environment map (`.exr` or `.hdr`), row 0 at the zenith. Non-finite or
+/// negative texel channels are set to 0 with a warning ([`load_environment_with_repairs`] counts them).
 pub fn load_environment(path: &Path) -> Result<LatLongMap> {
+    load_environment_with_repairs(path).map(|(map, _)| map)
+}
+
+/// [`load_environment`], also returning how many texel channels it repaired (set to 0 because they were
+/// non-finite or negative). The shipped maps in `assets/envmaps` are clean (0; tests/tests/bad_input.rs checks);
+/// the repair is for user files.
+pub fn load_environment_with_repairs(path: &Path) -> Result<(LatLongMap, usize)> {
     if !path.exists() {
         return Err(SceneError::NotFound { path: path.to_path_buf() });
     }
@@ -36,7 +44,7 @@ pub fn load_environment(path: &Path) -> Result<LatLongMap> {
         log::warn!("{}: {repaired} non-finite or negative texel channel(s) set to 0", path.display());
         eprintln!("warning: {}: {repaired} non-finite or negative texel channel(s) set to 0", path.display());
     }
-    Ok(map)
+    Ok((map, repaired))
 }
 
 fn load_exr(path: &Path) -> Result<LatLongMap> {

@@ -1,0 +1,283 @@
+//! The demo scenes: one file per scene, one entry each in the registry [`SCENES`].
+//!
+//! Everything that names scenes reads the registry: `--scene` of `demo`, `compare` and `sphere_scaling`
+//! (accepted values and the `--help` list with summaries), `demo --animate`'s help and warning, the scene
+//! names of the report sweep (tools/report/sweep.json, checked before it runs), and the tests, which build
+//! every registered scene, pose its motion and render it (demos/tests/scenes.rs, tests/tests/scenes.rs).
+//! Analytic scenes that only tests use (`sphere_over_plane`, `sheet_over_plane`) are fixtures in
+//! tests/src/fixtures.rs, not demo scenes. (chess, cloth and battle arrive with their issues.)
+//!
+//! # Adding a scene
+//!
+//! Write `demos/src/scenes/NAME.rs` after the template below, add `pub mod NAME;` here and `NAME::SCENE` to
+//! [`SCENES`]. The scene is then accepted by `--scene NAME` everywhere, listed in every `--help`, and built,
+//! posed and rendered by the tests. Meshes come from `engine::scene::load_obj` / `load_gltf` or
+//! [`shapes`]; assets go in `assets/` (read through [`SceneInputs::assets`]) with their credits in
+//! `assets/README.md`. The template is compiled and run as a doctest, so it stays current:
+//!
+//! ```
+//! // demos/src/scenes/NAME.rs
+//! //! `NAME`: what the scene shows and why it exists (the hard case it exercises).
+//!
+//! use demos::scenes::{shapes, Motion, Pose, Rest, SceneEntry, SceneInputs};
+//! use engine::blockers::Sphere;
+//! use engine::scene::{load_environment, Camera, Instance, Material, Scene, SceneBlockers, SphereLight};
+//! use glam::{DVec3, Mat4, Vec3};
+//!
+//! pub const SCENE: SceneEntry = SceneEntry {
+//!     name: "NAME",
+//!     // One line: shown by `--help` next to the name.
+//!     summary: "a ball over a ground plane under the courtyard and one light",
+//!     build,
+//!     // `None` for a static scene.
+//!     motion: Some(Motion { summary: "the ball bobs", pose: bob }),
+//! };
+//!
+//! fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
+//!     // Honour `--env` (inputs.env) or reject it with an error, never ignore it silently.
+//!     let env = inputs.env.map(Into::into).unwrap_or_else(|| inputs.assets.join("envmaps/courtyard.exr"));
+//!     let ball = Mat4::from_translation(Vec3::new(0.0, 0.6, 0.0)) * Mat4::from_scale(Vec3::splat(0.4));
+//!     Ok(Scene {
+//!         meshes: vec![shapes::ground_plane(2.0, 16), shapes::uv_sphere(32)],
+//!         materials: vec![Material::diffuse(Vec3::splat(0.6)), Material::glossy(Vec3::splat(0.7), 0.2, 100.0)],
+//!         instances: vec![
+//!             Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 },
+//!             Instance { mesh: 1, transform: ball, material: 1 },
+//!         ],
+//!         environment: load_environment(&env)?,
+//!         environment_intensity: 1.0,
+//!         lights: vec![SphereLight { center: Vec3::new(1.0, 2.0, 0.5), radius: 0.2, radiance: Vec3::splat(20.0) }],
+//!         // Blocker spheres per mesh in object space (None: casts no sphere shadow); a real mesh gets a fitted
+//!         // set: engine::scene::blockers::fitted_spheres(&mesh, &FitSettings::default(), &cache_path).
+//!         blockers: SceneBlockers {
+//!             spheres: vec![None, Some(vec![Sphere::new(DVec3::ZERO, 1.0)])],
+//!             ..Default::default()
+//!         },
+//!         camera: Camera { eye: Vec3::new(0.0, 1.2, 3.0), target: Vec3::new(0.0, 0.4, 0.0), fov_y_degrees: 45.0 },
+//!     })
+//! }
+//!
+//! /// Instance 1 (the ball) moves up and down around its rest transform.
+//! fn bob(rest: &Rest, t: f32) -> Pose {
+//!     let lift = Mat4::from_translation(Vec3::new(0.0, 0.2 * t.sin(), 0.0));
+//!     Pose { transforms: vec![(1, lift * rest.transforms[1])], bones: None }
+//! }
+//! # // The registry's checks (tests/tests/scenes.rs runs the same on every registered scene):
+//! # let assets = demos::assets_dir();
+//! # let scene = (SCENE.build)(&SceneInputs { env: None, assets: &assets }).unwrap();
+//! # demos::scenes::check(&SCENE, &scene).unwrap();
+//! ```
+
+use anyhow::Result;
+use engine::scene::Scene;
+use glam::Mat4;
+use std::path::Path;
+
+pub mod arm;
+pub mod bunny;
+pub mod furnace;
+pub mod lamp;
+pub mod shapes;
+pub mod sheet;
+pub mod sphere;
+
+/// Every demo scene, in the order `--help` lists them.
+pub const SCENES: &[SceneEntry] = &[bunny::SCENE, lamp::SCENE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE];
+
+/// A registered scene.
+#[derive(Clone, Copy)]
+pub struct SceneEntry {
+    /// The `--scene` name.
+    pub name: &'static str,
+    /// One line for `--help`.
+    pub summary: &'static str,
+    /// Build the scene at its rest pose.
+    pub build: fn(&SceneInputs) -> Result<Scene>,
+    /// What `--animate` does to it (`None`: static).
+    pub motion: Option<Motion>,
+}
+
+/// What a scene builder may read besides its own code.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneInputs<'a> {
+    /// `--env`: an environment map to use instead of the scene's. A scene whose environment is part of what it
+    /// tests (the furnace) rejects it with an error.
+    pub env: Option<&'a Path>,
+    /// The assets folder (meshes, environment maps, cached sphere sets): [`crate::assets_dir`].
+    pub assets: &'a Path,
+}
+
+/// A scene's animation: a pose as a function of time.
+#[derive(Clone, Copy)]
+pub struct Motion {
+    /// What moves, for `--help` (`the bunny turns on its base`).
+    pub summary: &'static str,
+    /// The pose at `t` seconds, from the scene's rest pose.
+    pub pose: fn(rest: &Rest, t: f32) -> Pose,
+}
+
+/// The rest pose of a built scene: what motions start from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rest {
+    /// Object-to-world transform per instance.
+    pub transforms: Vec<Mat4>,
+    /// Bone matrices (empty without skins).
+    pub bones: Vec<Mat4>,
+}
+
+impl Rest {
+    pub fn of(scene: &Scene) -> Self {
+        Self { transforms: scene.instances.iter().map(|i| i.transform).collect(), bones: scene.blockers.bones.clone() }
+    }
+}
+
+/// What a motion changes at one time: some instances' transforms and the bone matrices.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Pose {
+    /// (instance index, object-to-world transform); instances not listed keep theirs.
+    pub transforms: Vec<(usize, Mat4)>,
+    /// Every bone matrix (as many as the scene has), or `None` to keep them.
+    pub bones: Option<Vec<Mat4>>,
+}
+
+impl Pose {
+    /// Upload the pose (`Renderer::set_instance_transform`, `Renderer::set_bones`).
+    pub fn apply(&self, renderer: &mut engine::renderer::Renderer) -> engine::gpu::Result<()> {
+        for &(i, m) in &self.transforms {
+            renderer.set_instance_transform(i, m)?;
+        }
+        if let Some(b) = &self.bones {
+            renderer.set_bones(b)?;
+        }
+        Ok(())
+    }
+}
+
+/// A built scene's motion, ready to pose it at any time (`--animate`: the demo, the viewer, captures).
+pub struct Animation {
+    motion: Motion,
+    rest: Rest,
+}
+
+impl Animation {
+    pub fn new(motion: Motion, scene: &Scene) -> Self {
+        Self { motion, rest: Rest::of(scene) }
+    }
+
+    /// The animation of `scene`, built from `entry`, if the entry has a motion.
+    pub fn for_entry(entry: &SceneEntry, scene: &Scene) -> Option<Self> {
+        entry.motion.map(|m| Self::new(m, scene))
+    }
+
+    pub fn pose(&self, t: f32) -> Pose {
+        (self.motion.pose)(&self.rest, t)
+    }
+
+    /// Pose the renderer's scene at time `t` seconds.
+    pub fn apply(&self, renderer: &mut engine::renderer::Renderer, t: f32) -> engine::gpu::Result<()> {
+        self.pose(t).apply(renderer)
+    }
+}
+
+/// The registered scene called `name`; an unknown name is an error listing the registered ones.
+pub fn find(name: &str) -> Result<&'static SceneEntry> {
+    SCENES
+        .iter()
+        .find(|s| s.name == name)
+        .ok_or_else(|| anyhow::anyhow!("unknown scene '{name}' (scenes: {})", names()))
+}
+
+/// The registered names, comma-separated.
+pub fn names() -> String {
+    SCENES.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
+}
+
+/// Build the registered scene `name` from the project's assets, with `env` instead of its environment.
+pub fn build(name: &str, env: Option<&Path>) -> Result<Scene> {
+    let entry = find(name)?;
+    let assets = crate::assets_dir();
+    (entry.build)(&SceneInputs { env, assets: &assets }).map_err(|e| e.context(format!("building scene '{name}'")))
+}
+
+/// `--scene`'s parser: the registered names, each with its summary in `--help`.
+pub fn value_parser() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        SCENES.iter().map(|s| clap::builder::PossibleValue::new(s.name).help(s.summary)),
+    )
+}
+
+/// `--animate`'s help: what moves, and in which scenes.
+pub fn animate_help() -> String {
+    let mut motions: Vec<(&str, Vec<&str>)> = Vec::new();
+    for s in SCENES {
+        if let Some(m) = s.motion {
+            match motions.iter_mut().find(|(summary, _)| *summary == m.summary) {
+                Some((_, names)) => names.push(s.name),
+                None => motions.push((m.summary, vec![s.name])),
+            }
+        }
+    }
+    let moving: Vec<String> = motions.iter().map(|(m, names)| format!("{m} ({})", names.join(", "))).collect();
+    format!(
+        "Animate the scene over time: {}; the other scenes are static. Headless frames and --capture step 1/30 s, \
+         the viewer follows the clock",
+        moving.join("; ")
+    )
+}
+
+/// The names of the scenes with a motion, comma-separated.
+pub fn animated_names() -> String {
+    SCENES.iter().filter(|s| s.motion.is_some()).map(|s| s.name).collect::<Vec<_>>().join(", ")
+}
+
+/// Check what the registry promises about a built scene: its indices are in range, its numbers finite, and its
+/// motion (if any) poses only instances and bones it has, with finite matrices, at a spread of times (including
+/// t = 0 and an hour in). The CPU half of the registry's tests; the GPU half renders it.
+pub fn check(entry: &SceneEntry, scene: &Scene) -> Result<()> {
+    use anyhow::ensure;
+    let name = entry.name;
+    ensure!(!entry.summary.is_empty() && !entry.summary.contains('\n'), "{name}: the summary must be one line");
+    ensure!(!scene.instances.is_empty(), "{name}: no instances");
+    for (i, inst) in scene.instances.iter().enumerate() {
+        ensure!(inst.mesh < scene.meshes.len(), "{name}: instance {i} names mesh {}", inst.mesh);
+        ensure!(inst.material < scene.materials.len(), "{name}: instance {i} names material {}", inst.material);
+        ensure!(inst.transform.is_finite(), "{name}: instance {i} has a non-finite transform");
+    }
+    for l in &scene.lights {
+        ensure!(
+            l.center.is_finite() && l.radius > 0.0 && l.radiance.is_finite() && l.radiance.min_element() >= 0.0,
+            "{name}: bad light {l:?}"
+        );
+    }
+    ensure!(scene.environment.texels.len() == scene.environment.width * scene.environment.height, "{name}: env size");
+    ensure!(scene.environment.texels.iter().flatten().all(|c| c.is_finite() && *c >= 0.0), "{name}: env texels");
+    ensure!(scene.environment_intensity.is_finite() && scene.environment_intensity >= 0.0, "{name}: env intensity");
+    let Some(motion) = entry.motion else { return Ok(()) };
+    ensure!(!motion.summary.is_empty(), "{name}: the motion needs a summary");
+    let animation = Animation::new(motion, scene);
+    let mut moved = false;
+    for t in [0.0, 0.1, 0.5, 1.0, 2.5, 10.0, 3600.0] {
+        let pose = animation.pose(t);
+        for &(i, m) in &pose.transforms {
+            ensure!(
+                i < scene.instances.len(),
+                "{name}: t = {t}: the pose moves instance {i} of {}",
+                scene.instances.len()
+            );
+            ensure!(m.is_finite(), "{name}: t = {t}: non-finite transform of instance {i}");
+            moved |= m != scene.instances[i].transform;
+        }
+        if let Some(b) = &pose.bones {
+            ensure!(
+                b.len() == scene.blockers.bones.len(),
+                "{name}: t = {t}: {} bones, the scene has {}",
+                b.len(),
+                scene.blockers.bones.len()
+            );
+            ensure!(b.iter().all(|m| m.is_finite()), "{name}: t = {t}: non-finite bone matrix");
+            moved |= *b != scene.blockers.bones;
+        }
+    }
+    ensure!(moved, "{name}: the motion never changes the scene");
+    Ok(())
+}
