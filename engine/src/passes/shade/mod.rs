@@ -226,6 +226,19 @@ impl TargetPipelines {
         target: ShadeTarget,
         extra: &[Binding],
     ) -> Result<()> {
+        self.record_with_push(rec, name, inputs, target, extra, &[])
+    }
+
+    /// [`Self::record`] with push constants.
+    pub fn record_with_push(
+        &self,
+        rec: &mut Recorder,
+        name: &str,
+        inputs: &ShadeInputs,
+        target: ShadeTarget,
+        extra: &[Binding],
+        push: &[u8],
+    ) -> Result<()> {
         let mut b = vec![
             Binding::buffer("FrameBuf", inputs.frame),
             Binding::buffer("Materials", inputs.materials),
@@ -238,13 +251,13 @@ impl TargetPipelines {
                 b.push(Binding::storage_image("gbuf_position", &gbuffer.position));
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
                 b.push(Binding::storage_image("radiance", radiance));
-                rec.dispatch(&self.pixel, &b, &[], [radiance.desc.width, radiance.desc.height, 1])
+                rec.dispatch(&self.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])
             }
             ShadeTarget::Vertex { world_vertices, radiance, count } => {
                 rec.begin_pass(&format!("shade/{name} (per vertex)"));
                 b.push(Binding::buffer("WorldVertices", world_vertices));
                 b.push(Binding::buffer("VertexRadiance", radiance));
-                rec.dispatch(&self.vertex, &b, &[], [count, 1, 1])
+                rec.dispatch(&self.vertex, &b, push, [count, 1, 1])
             }
         }
     }
