@@ -214,8 +214,8 @@ pub fn markdown_table(schema: &[OptionSpec]) -> String {
             "| `{}` | {} | {} | {} |",
             s.key,
             s.default.map_or("—".to_string(), |d| format!("`{d}`")),
-            s.kind.accepted(),
-            s.help
+            s.kind.accepted().replace('|', "\\|"),
+            s.help.replace('|', "\\|")
         );
     }
     out
