@@ -6,7 +6,7 @@ use std::process::{Command, Stdio};
 fn render(scene: &str, extra: &[&str], name: &str, out: &std::path::Path) -> Vec<u8> {
     let status = Command::new(env!("CARGO_BIN_EXE_demo"))
         .env("ENGINE_VALIDATION", "1")
-        .args(["--scene", scene, "--width", "48", "--height", "32", "--name", name, "--out"])
+        .args(["--scene", scene, "--technique", "none", "--width", "48", "--height", "32", "--name", name, "--out"])
         .arg(out)
         .args(extra)
         .stdout(Stdio::null())

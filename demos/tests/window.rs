@@ -101,7 +101,9 @@ fn viewer_presents_the_headless_image() {
     std::fs::create_dir_all(&out).unwrap();
 
     // Headless reference of the same scene, size and settings.
-    let size = [format!("--width={W}"), format!("--height={H}")];
+    // `none`: the test compares presentation with the headless path, not shading (and isg's 40 viewer
+    // frames would cost minutes on lavapipe).
+    let size = [format!("--width={W}"), format!("--height={H}"), "--technique=none".to_string()];
     let status = demo()
         .args(&size)
         .args(["--frames=1", "--name=headless", "--out"])
