@@ -79,7 +79,17 @@ pub fn load_sweep(path: &Path, name: &str) -> Result<Sweep> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let mut file: SweepFile = serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     let names = file.keys().cloned().collect::<Vec<_>>().join(", ");
-    file.remove(name).with_context(|| format!("{}: no sweep '{name}' (has: {names})", path.display()))
+    let sweep = file.remove(name).with_context(|| format!("{}: no sweep '{name}' (has: {names})", path.display()))?;
+    check_scenes(&sweep).with_context(|| format!("{}: sweep '{name}'", path.display()))?;
+    Ok(sweep)
+}
+
+/// Every scene of the sweep is registered (demos/src/scenes), so that a typo fails before hours of measuring.
+pub fn check_scenes(sweep: &Sweep) -> Result<()> {
+    for s in &sweep.scenes {
+        crate::scenes::find(&s.scene).with_context(|| format!("scene '{}'", s.label()))?;
+    }
+    Ok(())
 }
 
 /// The default config: tools/report/sweep.json.
@@ -160,9 +170,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     for s in sweep.scenes.iter().flat_map(shadings) {
         shading_flag(&s)?;
     }
-    for s in &sweep.scenes {
-        crate::scenes::find(&s.scene).with_context(|| format!("sweep scene '{}'", s.label()))?;
-    }
+    check_scenes(sweep)?;
     let (w, h) = (sweep.width, sweep.height);
     let frames = sweep.frames.max(5);
     let total: usize = sweep.scenes.iter().map(|s| shadings(s).len() * sweep.techniques.len()).sum();
