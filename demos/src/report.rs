@@ -81,6 +81,7 @@ pub fn load_sweep(path: &Path, name: &str) -> Result<Sweep> {
     let names = file.keys().cloned().collect::<Vec<_>>().join(", ");
     let sweep = file.remove(name).with_context(|| format!("{}: no sweep '{name}' (has: {names})", path.display()))?;
     validate_techniques(&sweep).with_context(|| format!("{}: sweep '{name}'", path.display()))?;
+    check_scenes(&sweep).with_context(|| format!("{}: sweep '{name}'", path.display()))?;
     Ok(sweep)
 }
 
@@ -92,6 +93,14 @@ pub fn validate_techniques(sweep: &Sweep) -> Result<()> {
         if entry.name == "reference" {
             bail!("technique '{spec}': the reference is measured against itself; leave it out of the sweep");
         }
+    }
+    Ok(())
+}
+
+/// Every scene of the sweep is registered (demos/src/scenes), so that a typo fails before hours of measuring.
+pub fn check_scenes(sweep: &Sweep) -> Result<()> {
+    for s in &sweep.scenes {
+        crate::scenes::find(&s.scene).with_context(|| format!("scene '{}'", s.label()))?;
     }
     Ok(())
 }
@@ -174,9 +183,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     for s in sweep.scenes.iter().flat_map(shadings) {
         shading_flag(&s)?;
     }
-    for s in &sweep.scenes {
-        crate::scenes::find(&s.scene).with_context(|| format!("sweep scene '{}'", s.label()))?;
-    }
+    check_scenes(sweep)?;
     let (w, h) = (sweep.width, sweep.height);
     let frames = sweep.frames.max(5);
     let total: usize = sweep.scenes.iter().map(|s| shadings(s).len() * sweep.techniques.len()).sum();

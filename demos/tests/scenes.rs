@@ -103,3 +103,21 @@ fn the_registry_check_catches_bad_entries() {
     let err = scenes::check(&scenes::furnace::SCENE, &bad_light).unwrap_err().to_string();
     assert!(err.contains("bad light"), "{err}");
 }
+
+#[test]
+fn the_report_sweep_refuses_unregistered_scenes() {
+    let path = std::env::temp_dir().join(format!("sweep-scenes-{}.json", std::process::id()));
+    let sweep = |scene: &str| {
+        format!(
+            r#"{{"s": {{"width": 8, "height": 6, "frames": 1, "fraction": 0.5, "max_spp": 4, "samples_per_frame": 4,
+               "scenes": [{{"scene": "bunny"}}, {{"scene": "{scene}", "label": "mine"}}], "techniques": ["none"],
+               "shading": ["pixel"]}}}}"#
+        )
+    };
+    std::fs::write(&path, sweep("teapot")).unwrap();
+    let err = format!("{:#}", demos::report::load_sweep(&path, "s").unwrap_err());
+    assert!(err.contains("teapot") && err.contains("mine") && SCENES.iter().all(|s| err.contains(s.name)), "{err}");
+    std::fs::write(&path, sweep("lamp")).unwrap();
+    demos::report::load_sweep(&path, "s").expect("registered scenes load");
+    let _ = std::fs::remove_file(&path);
+}

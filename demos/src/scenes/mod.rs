@@ -62,7 +62,7 @@
 //!     let lift = Mat4::from_translation(Vec3::new(0.0, 0.2 * t.sin(), 0.0));
 //!     Pose { transforms: vec![(1, lift * rest.transforms[1])], bones: None }
 //! }
-//! # // The registry's checks (tests/tests/scenes.rs runs the same on every registered scene):
+//! # // The registry's CPU checks (demos/tests/scenes.rs runs them on every registered scene):
 //! # let assets = demos::assets_dir();
 //! # let scene = (SCENE.build)(&SceneInputs { env: None, assets: &assets }).unwrap();
 //! # demos::scenes::check(&SCENE, &scene).unwrap();
