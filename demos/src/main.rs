@@ -19,12 +19,13 @@ struct Args {
     /// Shade per vertex (interpolated) instead of per pixel.
     #[arg(long)]
     per_vertex: bool,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
+    /// Image width in pixels (default: 640 on a GPU, 320 on a CPU adapter such as lavapipe, where the
+    /// default isg frame would otherwise take tens of seconds).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels (default: 480 on a GPU, 240 on a CPU adapter).
+    #[arg(long)]
+    height: Option<u32>,
     /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (the furnace
     /// refuses it: its constant environment is what it tests).
     #[arg(long)]
@@ -117,16 +118,19 @@ fn run() -> anyhow::Result<()> {
         false => (None, Vec::new()),
     };
     let gpu = Gpu::new(&GpuDesc { device_name: args.device.clone(), surface_extensions, ..GpuDesc::default() })?;
+    let (default_w, default_h) = default_size(&gpu);
+    let (width, height) = (args.width.unwrap_or(default_w), args.height.unwrap_or(default_h));
+    (args.width, args.height) = (Some(width), Some(height));
     let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
+        width,
+        height,
         technique: args.technique.clone(),
         per_vertex: args.per_vertex,
         exposure: args.exposure,
     };
     eprintln!(
         "preparing scene '{}' with technique '{}' at {}x{}...",
-        args.scene, args.technique, args.width, args.height
+        args.scene, args.technique, width, height
     );
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
@@ -143,7 +147,7 @@ fn run() -> anyhow::Result<()> {
         args.frames = spp.div_ceil(per_frame);
     }
     if let Some(dir) = &args.export {
-        let opts = demos::export::ExportOptions { width: args.width, height: args.height, spp: 256, camera: None };
+        let opts = demos::export::ExportOptions { width, height, spp: 256, camera: None };
         let e = demos::export::export_mitsuba(&scene, dir, &opts)?;
         println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
         (args.out, args.name) = (dir.clone(), "engine".into());
@@ -193,8 +197,18 @@ fn capture_info(gpu: &Gpu, args: &Args) -> demos::capture::CaptureInfo {
         scene: args.scene.clone(),
         technique: args.technique.clone(),
         per_vertex: args.per_vertex,
-        width: args.width,
-        height: args.height,
+        width: args.width.unwrap_or(0),
+        height: args.height.unwrap_or(0),
+    }
+}
+
+/// The resolution when none is given: 640×480 on a GPU; 320×240 on a CPU adapter (lavapipe), where the
+/// default technique costs ~20 s per 640×480 frame.
+fn default_size(gpu: &Gpu) -> (u32, u32) {
+    if gpu.info.device_type == "CPU" {
+        (320, 240)
+    } else {
+        (640, 480)
     }
 }
 
