@@ -6,6 +6,7 @@
 //! and validation errors into an error, so tests fail on either.
 
 mod context;
+pub mod layout_check;
 mod pipeline;
 mod recorder;
 mod resources;
@@ -19,7 +20,7 @@ pub use pipeline::{Binding, ComputePipeline, GraphicsPipeline, GraphicsPipelineD
 pub use recorder::{Frame, PassTiming, Recorder};
 pub use resources::{Buffer, BufferDesc, Image, ImageDesc, ImageFormat, Memory};
 pub use shader::{ShaderCompiler, ShaderModuleInfo, ShaderStage};
-pub use spirv::{DescriptorKind, ReflectedBinding, Reflection};
+pub use spirv::{DescriptorKind, MemberLayout, ReflectedBinding, Reflection, Scalar, ScalarKind, StructLayout};
 pub use swapchain::{surface_extensions, Swapchain, SwapchainImage};
 
 /// Errors of the GPU layer.

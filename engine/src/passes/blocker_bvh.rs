@@ -25,12 +25,13 @@ const RADIX_PASSES: u32 = 8;
 /// refit.comp) and 65535 workgroups is the smallest `maxComputeWorkGroupCount[0]` Vulkan allows.
 pub const MAX_SPHERES: u32 = 65535;
 
+/// Push constants of the radix sort steps (`Push` in shaders-glsl/blocker_bvh/radix.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct RadixPush {
-    n: u32,
-    shift: u32,
-    tiles: u32,
+pub struct RadixPush {
+    pub n: u32,
+    pub shift: u32,
+    pub tiles: u32,
 }
 
 struct Scratch {

