@@ -3,7 +3,8 @@
 //! A [`Gpu`] owns the instance, the chosen device, one graphics+compute queue, the gpu-allocator
 //! allocator and the validation messenger. Resources ([`Buffer`], [`Image`]) are `{ raw, desc,
 //! allocation }` values destroyed explicitly by value; [`Gpu::shutdown`] turns leaked allocations
-//! and validation errors into an error, so tests fail on either.
+//! and validation errors into an error, so tests fail on either, and the tests' context
+//! ([`testing::TestGpu`]) fails a test that forgets to call it.
 
 mod context;
 pub mod layout_check;
