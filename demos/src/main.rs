@@ -128,10 +128,7 @@ fn run() -> anyhow::Result<()> {
         per_vertex: args.per_vertex,
         exposure: args.exposure,
     };
-    eprintln!(
-        "preparing scene '{}' with technique '{}' at {}x{}...",
-        args.scene, args.technique, width, height
-    );
+    eprintln!("preparing scene '{}' with technique '{}' at {}x{}...", args.scene, args.technique, width, height);
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(&gpu, &scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());

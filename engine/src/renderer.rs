@@ -224,17 +224,19 @@ impl Renderer {
         let t = (self.camera.fov_y_degrees.to_radians() * 0.5).tan();
         let aspect = self.settings.width as f32 / self.settings.height as f32;
         FrameData {
-            eye: self.camera.eye.extend(1.0).to_array(),
-            right: [r.x, r.y, r.z, t * aspect],
-            up: [u.x, u.y, u.z, t],
-            forward: [f.x, f.y, f.z, self.near_far.0],
-            params: [self.near_far.1, self.settings.exposure, 0.0, 0.0],
-            size: [
-                self.settings.width,
-                self.settings.height,
-                self.scene.geometry.vertex_count,
-                PREFILTER_LEVELS as u32,
-            ],
+            eye: self.camera.eye.to_array(),
+            right: r.to_array(),
+            tan_half_fov_x: t * aspect,
+            up: u.to_array(),
+            tan_half_fov_y: t,
+            forward: f.to_array(),
+            near: self.near_far.0,
+            far: self.near_far.1,
+            exposure: self.settings.exposure,
+            size: [self.settings.width, self.settings.height],
+            vertex_count: self.scene.geometry.vertex_count,
+            prefiltered_levels: PREFILTER_LEVELS as u32,
+            ..FrameData::default()
         }
     }
 

@@ -9,7 +9,10 @@ struct BlockerSphere {
     vec4 sphere;   // rest centre (object space), radius
     uvec4 joints;
     vec4 weights;  // sum 0: rigid
-    uvec4 info;    // x: object index
+    uint object;   // the instance the sphere belongs to
+    uint pad0;
+    uint pad1;
+    uint pad2;
 };
 layout(std430, binding = 0) readonly buffer BlockerSpheres { BlockerSphere rest[]; };
 layout(std430, binding = 1) readonly buffer Objects { Object objects[]; };
@@ -25,7 +28,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.sphere_count) return;
     BlockerSphere s = rest[i];
-    mat4 model = objects[s.info.x].model;
+    mat4 model = objects[s.object].model;
     vec3 c = (model * (skin_matrix(s.joints, s.weights, pc.bone_count) * vec4(s.sphere.xyz, 1.0))).xyz;
     float scale = max(length(model[0].xyz), max(length(model[1].xyz), length(model[2].xyz)));
     spheres[i] = vec4(c, s.sphere.w * scale);

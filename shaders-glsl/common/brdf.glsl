@@ -14,7 +14,7 @@
 const float BRDF_MIN_NDV = 1e-3;
 
 int brdf_kind(Material m) {
-    return int(m.diffuse.w + 0.5);
+    return int(m.kind + 0.5);
 }
 
 bool brdf_has_specular(Material m) {
@@ -89,7 +89,7 @@ vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
     vec3 ks = m.specular.rgb;
     int kind = brdf_kind(m);
     if (kind == BRDF_BLINN_PHONG) {
-        float s = m.specular.w;
+        float s = m.shininess;
         return ks * ((s + 8.0) / (8.0 * PI)) * pow(nh, s);
     }
     if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) {
@@ -113,7 +113,7 @@ float brdf_half_pdf(Material m, vec3 n, vec3 t, vec3 h) {
     if (nh <= 0.0) return 0.0;
     int kind = brdf_kind(m);
     if (kind == BRDF_BLINN_PHONG) {
-        float s = m.specular.w;
+        float s = m.shininess;
         return (s + 1.0) / (2.0 * PI) * pow(nh, s);
     }
     if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) return brdf_ndf(kind == BRDF_CT_GGX, nh, m.brdf.x) * nh;
@@ -128,7 +128,7 @@ vec3 brdf_sample_half(Material m, vec3 n, vec3 t, float u1, float u2) {
     vec3 b = cross(n, t);
     float cos_h, phi;
     if (kind == BRDF_BLINN_PHONG) {
-        cos_h = pow(1.0 - u1, 1.0 / (m.specular.w + 1.0));
+        cos_h = pow(1.0 - u1, 1.0 / (m.shininess + 1.0));
         phi = 2.0 * PI * u2;
     } else if (kind == BRDF_CT_BECKMANN || kind == BRDF_CT_GGX) {
         float a2 = m.brdf.x * m.brdf.x;
@@ -165,7 +165,7 @@ int brdf_specular_lobes(Material m, vec3 n, vec3 v, out SpecLobe lobes[BRDF_MAX_
     vec3 r = reflect(-v, n);
     int kind = brdf_kind(m);
     if (kind == BRDF_BLINN_PHONG) {
-        float s = m.specular.w;
+        float s = m.shininess;
         lobes[0].axis = r;
         lobes[0].lambda = s / (4.0 * nv);
         lobes[0].weight = ks * ((s + 8.0) / (8.0 * PI)) * max(dot(n, r), 0.0);
@@ -184,7 +184,7 @@ int brdf_specular_lobes(Material m, vec3 n, vec3 v, out SpecLobe lobes[BRDF_MAX_
     }
     vec3 t = brdf_tangent(m, n);
     vec3 b = cross(n, t);
-    vec3 wide = m.tangent.w > 0.5 ? b : t;
+    vec3 wide = m.lobes_along_b > 0.5 ? b : t;
     float nu = m.brdf.x, nvx = m.brdf.y;
     float c = sqrt((nu + 1.0) * (nvx + 1.0)) / (8.0 * PI);
     for (int k = -3; k <= 3; ++k) {

@@ -56,7 +56,7 @@ void isg_thin_begin(vec3 p, vec3 n) {
 }
 
 bool isg_thin_present() {
-    return ISG_THIN_CLUSTER(0).range.y > 0u;
+    return ISG_THIN_CLUSTER(0).count > 0u;
 }
 
 // Sines and cosines of the patch rows' centre angles θ_i = lo + (i + ½) δ, filled once per grid on first
@@ -133,7 +133,7 @@ bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
     float last = float(g.side - 1);
     for (uint k = 0u; k < clusters; ++k) {
         ThinCluster cl = ISG_THIN_CLUSTER(k);
-        if (cl.range.y == 0u) continue;
+        if (cl.count == 0u) continue;
         if (dot(cl.bound.xyz - p, n) < -cl.bound.w) continue;
         if (!bvh_cone_hits(p, g.z, g.cone, cl.bound)) continue;
         // The cluster's tile: the rows of its bounding cap (padded). Its columns are left to each
@@ -164,7 +164,7 @@ bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
             isg_thin_tables(g);
             have_tables = true;
         }
-        for (uint t = cl.range.x; t < cl.range.x + cl.range.y; ++t) {
+        for (uint t = cl.first; t < cl.first + cl.count; ++t) {
             ThinTriangle tri = ISG_THIN_TRIANGLE(t);
             vec3 a = tri.v0.xyz - p;
             vec3 b = tri.v1.xyz - p;

@@ -1,13 +1,16 @@
-// Host/shader structs (std430). Rust twins: engine/src/passes/layout.rs (with layout tests).
+// Host/shader structs (std430). Rust twins: engine/src/passes/layout.rs, checked against these
+// declarations by tests/tests/struct_layouts.rs.
 #ifndef SCENE_GLSL
 #define SCENE_GLSL
 
 const float PI = 3.14159265358979323846;
 
-// position.w = instance index, normal.w = material index (exact in f32 below 2^24).
+// Twin: engine::passes::layout::GpuVertex. The indices are exact in f32 below 2^24.
 struct Vertex {
-    vec4 position;
-    vec4 normal;
+    vec3 position;
+    float instance;  // index into the objects (instance transforms)
+    vec3 normal;
+    float material;  // index into the materials
 };
 
 struct Object {
@@ -15,26 +18,39 @@ struct Object {
     mat4 normal_matrix;
 };
 
-// diffuse.rgb = ρ_d, diffuse.w = BRDF kind (0 Blinn-Phong, 1 Cook-Torrance Beckmann, 2 Cook-Torrance
-// GGX, 3 Ashikhmin-Shirley); specular.rgb = k_s (F0), specular.w = Blinn-Phong exponent s;
-// brdf = Cook-Torrance (α, λ_h, μ, 0) or Ashikhmin-Shirley (n_u, n_v, λ_h, δ); lobes = Ashikhmin-Shirley
-// amplitudes μ_|k|, k = 0..3; tangent.xyz = anisotropy direction, tangent.w = 1: lobes along b.
-// Twin: engine::passes::layout::GpuMaterial (filled from engine::scene::Material).
+// brdf holds the parameters of the model `kind` names: Cook-Torrance (α, λ_h, μ, 0) or
+// Ashikhmin-Shirley (n_u, n_v, λ_h, δ), unused for Blinn-Phong; lobes = Ashikhmin-Shirley amplitudes
+// μ_|k|, k = 0..3 (indexed by k). Twin: engine::passes::layout::GpuMaterial (filled from
+// engine::scene::Material).
 struct Material {
-    vec4 diffuse;
-    vec4 specular;
+    vec3 diffuse;         // ρ_d
+    float kind;           // BRDF kind: 0 Blinn-Phong, 1 Cook-Torrance Beckmann, 2 Cook-Torrance GGX,
+                          // 3 Ashikhmin-Shirley (exact small integers)
+    vec3 specular;        // k_s (F0)
+    float shininess;      // Blinn-Phong exponent s
     vec4 brdf;
     vec4 lobes;
-    vec4 tangent;
+    vec3 tangent;         // anisotropy direction
+    float lobes_along_b;  // 1: the Ashikhmin-Shirley lobes lie along b, 0: along t
 };
 
+// Twin: engine::passes::layout::FrameData.
 struct FrameData {
-    vec4 eye;       // xyz: camera position
-    vec4 right;     // xyz: camera right; w: tan(fov_y / 2) * aspect
-    vec4 up;        // xyz: camera up; w: tan(fov_y / 2)
-    vec4 forward;   // xyz: camera forward; w: near plane
-    vec4 params;    // x: far plane, y: exposure, z, w: unused
-    uvec4 size;     // x: width, y: height, z: vertex count, w: prefiltered levels
+    vec3 eye;                 // camera position
+    float pad0;
+    vec3 right;               // camera right (unit)
+    float tan_half_fov_x;     // tan(fov_y / 2) * aspect
+    vec3 up;                  // camera up (unit)
+    float tan_half_fov_y;     // tan(fov_y / 2)
+    vec3 forward;             // camera forward (unit)
+    float near;               // near plane distance
+    float far;                // far plane distance
+    float exposure;           // tone-mapping scale of the radiance
+    float pad1;
+    float pad2;
+    uvec2 size;               // width, height (pixels)
+    uint vertex_count;
+    uint prefiltered_levels;  // levels of the prefiltered environment atlas (shade/prefiltered.glsl)
 };
 
 #endif

@@ -1,6 +1,6 @@
 // Linear blend skinning shared by the skin pass and the blocker_spheres pass (the same bone matrices
 // move vertices and spheres). Requires, before inclusion, a buffer with `mat4 bones[]`.
-// Host twins: engine::passes::blocker_spheres::GpuVertexSkin (layout test there).
+// Host twin: engine::passes::blocker_spheres::GpuVertexSkin (checked by tests/tests/struct_layouts.rs).
 #ifndef SKINNING_GLSL
 #define SKINNING_GLSL
 

@@ -1,7 +1,7 @@
 // Thin shells (ISG Sec. 5, cloth): the world-space triangles of meshes marked thin, grouped in clusters
 // with a bounding sphere (written every frame by the thin_shells pass; host twins in
-// engine/src/passes/thin_shells.rs, layout tests there), and the self-shadowing rule every consumer
-// applies (f64 twin: engine::passes::shade::isg::thin::blocks_receiver).
+// engine/src/passes/thin_shells.rs, checked by tests/tests/struct_layouts.rs), and the self-shadowing
+// rule every consumer applies (f64 twin: engine::passes::shade::isg::thin::blocks_receiver).
 #ifndef THIN_GLSL
 #define THIN_GLSL
 
@@ -12,8 +12,11 @@ struct ThinTriangle {
 };
 
 struct ThinCluster {
-    vec4 bound;   // bounding sphere of its triangles (centre, radius)
-    uvec4 range;  // x: first triangle, y: triangle count
+    vec4 bound;  // bounding sphere of its triangles (centre, radius), as spheres.glsl takes spheres
+    uint first;  // first triangle
+    uint count;  // triangle count
+    uint pad0;
+    uint pad1;
 };
 
 // A triangle whose plane passes within THIN_PLANE_EPS × (its longest edge) of the receiver cannot block

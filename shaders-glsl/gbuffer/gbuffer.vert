@@ -13,14 +13,14 @@ layout(location = 3) out vec3 out_radiance;
 void main() {
     Vertex v = world[gl_VertexIndex];
     vec3 d = v.position.xyz - frame.eye.xyz;
-    float x = dot(d, frame.right.xyz) / frame.right.w;
-    float y = dot(d, frame.up.xyz) / frame.up.w;
+    float x = dot(d, frame.right.xyz) / frame.tan_half_fov_x;
+    float y = dot(d, frame.up.xyz) / frame.tan_half_fov_y;
     float z = dot(d, frame.forward.xyz);
-    float n = frame.forward.w, f = frame.params.x;
+    float n = frame.near, f = frame.far;
     // Vulkan clip space: y down, depth (z − n) f / ((f − n) z) in [0, 1].
     gl_Position = vec4(x, -y, (z - n) * f / (f - n), z);
     out_position = v.position.xyz;
     out_normal = v.normal.xyz;
-    out_material = v.normal.w;
+    out_material = v.material;
     out_radiance = vertex_radiance[gl_VertexIndex].rgb;
 }

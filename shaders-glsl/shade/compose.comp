@@ -13,7 +13,7 @@ void main() {
     vec3 result;
     if (imageLoad(gbuf_position, px).w < 0.5) {
         vec2 ndc = (vec2(px) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
-        vec3 d = frame.forward.xyz + ndc.x * frame.right.w * frame.right.xyz - ndc.y * frame.up.w * frame.up.xyz;
+        vec3 d = frame.forward.xyz + ndc.x * frame.tan_half_fov_x * frame.right.xyz - ndc.y * frame.tan_half_fov_y * frame.up.xyz;
         result = environment_radiance(d);
     } else {
         result = imageLoad(gbuf_vertex_radiance, px).rgb;

@@ -11,8 +11,10 @@
 #include "../common/sphere_light.glsl"
 
 struct SphereLight {
-    vec4 center_radius;  // world-space centre, radius
-    vec4 radiance;       // linear RGB, w = 0
+    vec3 center;  // world space
+    float radius;
+    vec3 radiance;  // linear RGB
+    float pad0;
 };
 layout(std430, binding = 20) readonly buffer Lights {
     uint light_count;
@@ -22,7 +24,7 @@ layout(std430, binding = 20) readonly buffer Lights {
 
 // The cap light j subtends from p (false: p is inside the light, which then fills every direction).
 bool light_cap(uint j, vec3 p, out vec3 axis, out float sin_alpha, out float cos_alpha) {
-    return cap_from_sphere(p, lights[j].center_radius.xyz, lights[j].center_radius.w, axis, sin_alpha, cos_alpha);
+    return cap_from_sphere(p, lights[j].center, lights[j].radius, axis, sin_alpha, cos_alpha);
 }
 
 // Unshadowed radiance from light j at sp, given the material's specular lobes at sp and the cap.
@@ -39,7 +41,7 @@ vec3 light_unshadowed(ShadePoint sp, uint j, SpecLobe lobes[BRDF_MAX_LOBES], int
     }
     // The least-squares lobe amplitudes may be negative (Ashikhmin-Shirley): clamp the sum, as the
     // environment's specular term does.
-    return lights[j].radiance.rgb * (result + max(spec, vec3(0.0)));
+    return lights[j].radiance * (result + max(spec, vec3(0.0)));
 }
 
 // Σ over every light of its unshadowed radiance (technique `none`).

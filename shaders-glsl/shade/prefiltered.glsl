@@ -1,5 +1,5 @@
 // Lookups into the SG-prefiltered environment atlas (engine passes::shade::none::prefiltered_atlas):
-// levels k = 0..frame.size.w−1 hold Γ̄_L at λ_k = 4^(k−1) (ISG Eq. 10), stacked vertically.
+// levels k = 0..frame.prefiltered_levels−1 hold Γ̄_L at λ_k = 4^(k−1) (ISG Eq. 10), stacked vertically.
 #ifndef SHADE_PREFILTERED_GLSL
 #define SHADE_PREFILTERED_GLSL
 #include "common.glsl"
@@ -7,7 +7,7 @@
 #include "../common/sg.glsl"
 
 vec3 prefiltered_level(sampler2D atlas, vec3 r, float level) {
-    float levels = float(frame.size.w);
+    float levels = float(frame.prefiltered_levels);
     vec2 uv = envmap_uv(r);
     float rows = float(textureSize(atlas, 0).y) / levels;
     float v = clamp(uv.y, 0.5 / rows, 1.0 - 0.5 / rows);
@@ -24,11 +24,11 @@ vec3 irradiance_lookup(sampler2D grid, vec3 n) {
 
 // Normalized prefiltered radiance around r for an SG of sharpness λ, interpolated in log λ.
 vec3 prefiltered_lookup(sampler2D atlas, vec3 r, float lambda) {
-    float t = clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.size.w) - 1.0);
+    float t = clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.prefiltered_levels) - 1.0);
     float k = floor(t);
     float f = t - k;
     vec3 a = prefiltered_level(atlas, r, k);
-    vec3 b = prefiltered_level(atlas, r, min(k + 1.0, float(frame.size.w) - 1.0));
+    vec3 b = prefiltered_level(atlas, r, min(k + 1.0, float(frame.prefiltered_levels) - 1.0));
     return mix(a, b, f);
 }
 
@@ -51,7 +51,7 @@ vec3 prefiltered_lobe_integral(sampler2D atlas, SpecLobe lobe) {
 // The unshadowed specular term of any material (common/brdf.glsl): Σ_j w_j ∫ L G_j, clamped at 0
 // (twin: engine::math::brdf::specular_sum). Blinn-Phong keeps blinn_phong_prefiltered exactly.
 vec3 specular_prefiltered(sampler2D atlas, Material m, vec3 n, vec3 view) {
-    if (brdf_kind(m) == BRDF_BLINN_PHONG) return blinn_phong_prefiltered(atlas, n, view, m.specular.rgb, m.specular.w);
+    if (brdf_kind(m) == BRDF_BLINN_PHONG) return blinn_phong_prefiltered(atlas, n, view, m.specular.rgb, m.shininess);
     SpecLobe lobes[BRDF_MAX_LOBES];
     int count = brdf_specular_lobes(m, n, view, lobes);
     vec3 sum = vec3(0.0);

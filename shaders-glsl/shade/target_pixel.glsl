@@ -6,7 +6,7 @@ layout(binding = 5, rgba32f) uniform writeonly image2D radiance;
 
 vec3 camera_ray(ivec2 px) {
     vec2 ndc = (vec2(px) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
-    return normalize(frame.forward.xyz + ndc.x * frame.right.w * frame.right.xyz - ndc.y * frame.up.w * frame.up.xyz);
+    return normalize(frame.forward.xyz + ndc.x * frame.tan_half_fov_x * frame.right.xyz - ndc.y * frame.tan_half_fov_y * frame.up.xyz);
 }
 
 void main() {

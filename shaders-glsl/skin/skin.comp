@@ -19,12 +19,12 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.vertex_count) return;
     Vertex v = vertices[i];
-    Object o = objects[uint(v.position.w)];
+    Object o = objects[uint(v.instance)];
     VertexSkin s = skins[i];
     mat4 b = skin_matrix(s.joints, s.weights, pc.bone_count);
     vec3 p = (o.model * (b * vec4(v.position.xyz, 1.0))).xyz;
     vec3 n = mat3(o.normal_matrix) * (skin_cofactor(mat3(b)) * v.normal.xyz);
     float len = length(n);
     n = len > 0.0 ? n / len : vec3(0.0, 1.0, 0.0);
-    world[i] = Vertex(vec4(p, v.position.w), vec4(n, v.normal.w));
+    world[i] = Vertex(p, v.instance, n, v.material);
 }

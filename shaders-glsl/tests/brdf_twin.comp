@@ -1,7 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Twin test of common/brdf.glsl against engine/math/src/brdf.rs.
-// Input, stride 29 floats per case: [0..20) the Material (diffuse, specular, brdf, lobes, tangent),
+// Input, stride 29 floats per case: [0..20) the Material (the 20 floats of GpuMaterial, std430 order),
 //   [20..23) n, [23..26) v, [26..29) l (unit vectors).
 // Output, stride 56 floats per case:
 //   [0..3) brdf_specular(m, n, t, v, l)   [3] brdf_half_pdf(m, n, t, normalize(v + l))
@@ -30,11 +30,14 @@ void main() {
     }
     uint b = i * IN_STRIDE;
     Material m;
-    m.diffuse = in4(b);
-    m.specular = in4(b + 4u);
+    m.diffuse = in3(b);
+    m.kind = data_in[b + 3u];
+    m.specular = in3(b + 4u);
+    m.shininess = data_in[b + 7u];
     m.brdf = in4(b + 8u);
     m.lobes = in4(b + 12u);
-    m.tangent = in4(b + 16u);
+    m.tangent = in3(b + 16u);
+    m.lobes_along_b = data_in[b + 19u];
     vec3 n = in3(b + 20u);
     vec3 v = in3(b + 23u);
     vec3 l = in3(b + 26u);

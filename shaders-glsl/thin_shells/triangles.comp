@@ -17,14 +17,15 @@ layout(push_constant) uniform Push {
 void main() {
     uint c = gl_GlobalInvocationID.x;
     if (c >= pc.cluster_count) return;
-    uvec4 range = thin_clusters[c].range;
-    if (range.y == 0u) {
+    uint first = thin_clusters[c].first;
+    uint count = thin_clusters[c].count;
+    if (count == 0u) {
         thin_clusters[c].bound = vec4(0.0);
         return;
     }
     vec3 lo = vec3(3.0e38);
     vec3 hi = vec3(-3.0e38);
-    for (uint t = range.x; t < range.x + range.y; ++t) {
+    for (uint t = first; t < first + count; ++t) {
         uvec4 k = thin_indices[t];
         vec3 a = world[k.x].position.xyz;
         vec3 b = world[k.y].position.xyz;
@@ -35,7 +36,7 @@ void main() {
     }
     vec3 centre = 0.5 * (lo + hi);
     float r2 = 0.0;
-    for (uint t = range.x; t < range.x + range.y; ++t) {
+    for (uint t = first; t < first + count; ++t) {
         uvec4 k = thin_indices[t];
         for (int v = 0; v < 3; ++v) {
             vec3 p = world[k[v]].position.xyz - centre;

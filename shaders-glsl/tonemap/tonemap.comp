@@ -18,7 +18,7 @@ vec3 srgb_encode(vec3 c) {
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(px), frame.size.xy))) return;
-    vec3 c = imageLoad(radiance, px).rgb * frame.params.y;
+    vec3 c = imageLoad(radiance, px).rgb * frame.exposure;
     if (any(isnan(c)) || any(isinf(c))) c = vec3(0.0);
     imageStore(ldr, px, vec4(srgb_encode(aces(max(c, vec3(0.0)))), 1.0));
 }

@@ -2,14 +2,64 @@
 
 pub mod fixtures;
 
+use engine::gpu::testing::TestGpu;
 use engine::gpu::Gpu;
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
 use glam::DVec3;
+use std::path::Path;
 
-/// A GPU with the validation layer required (any validation error fails `shutdown`).
-pub fn gpu() -> Gpu {
+/// A GPU with the validation layer required: any validation error or leak fails `shutdown`, and
+/// fails the test on drop when it forgets `shutdown` ([`TestGpu`]).
+pub fn gpu() -> TestGpu {
     engine::gpu::testing::test_gpu().expect("a Vulkan device with the validation layer (run `cargo xtask test`)")
+}
+
+/// What an image test does with its reference image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceMode {
+    /// Compare the render with the reference (every normal run).
+    Compare,
+    /// Write the render as the new reference, then fail: see [`blessed`].
+    Bless,
+}
+
+/// An environment flag is on when set to anything but "", "0" or "false" (any case): CI systems set
+/// `CI=true` (GitHub, GitLab) or `CI=1`; `.ci/run` runs under `CI=true`.
+fn flag_on(value: Option<&str>) -> bool {
+    value.is_some_and(|v| !v.is_empty() && v != "0" && !v.eq_ignore_ascii_case("false"))
+}
+
+/// The mode from the values of `ENGINE_BLESS` and `CI`. Blessing under CI is refused: a CI run that
+/// rewrote its references would compare nothing and could not fail.
+pub fn reference_mode_from(bless: Option<&str>, ci: Option<&str>) -> Result<ReferenceMode, String> {
+    match (flag_on(bless), flag_on(ci)) {
+        (false, _) => Ok(ReferenceMode::Compare),
+        (true, false) => Ok(ReferenceMode::Bless),
+        (true, true) => Err(format!(
+            "ENGINE_BLESS={} is refused under CI (CI={}): references are blessed on a developer's machine \
+             (`cargo xtask bless`) and committed; CI only compares",
+            bless.unwrap_or_default(),
+            ci.unwrap_or_default()
+        )),
+    }
+}
+
+/// [`reference_mode_from`] on this process's environment; panics (fails the test) when refused.
+pub fn reference_mode() -> ReferenceMode {
+    let var = |k: &str| std::env::var(k).ok();
+    reference_mode_from(var("ENGINE_BLESS").as_deref(), var("CI").as_deref()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Ends a blessing image test: the reference at `path` was written and nothing was compared, so the
+/// test fails rather than report a pass it did not earn. `cargo xtask bless` runs the image tests again
+/// without `ENGINE_BLESS` afterwards; that run is the test.
+pub fn blessed(path: &Path) -> ! {
+    panic!(
+        "blessed {}: the reference was written and NOT compared (ENGINE_BLESS is set), so this run is not a \
+         test; run again without ENGINE_BLESS to check it (`cargo xtask bless` does)",
+        path.display()
+    )
 }
 
 /// Render `scene` once and return (linear RGBA32F, tone-mapped RGBA8).
@@ -83,7 +133,33 @@ pub fn cap_cosine_fraction(p: DVec3, c: DVec3, r: f64) -> Option<f64> {
 
 #[cfg(test)]
 mod tests {
-    use super::relative_rmse;
+    use super::{blessed, reference_mode_from, relative_rmse, ReferenceMode};
+
+    // ENGINE_BLESS blesses only off CI; any CI value that means "on" refuses it.
+    #[test]
+    fn blessing_is_refused_under_ci() {
+        use ReferenceMode::*;
+        assert_eq!(reference_mode_from(None, None), Ok(Compare));
+        assert_eq!(reference_mode_from(None, Some("true")), Ok(Compare));
+        assert_eq!(reference_mode_from(Some("1"), None), Ok(Bless));
+        assert_eq!(reference_mode_from(Some("1"), Some("false")), Ok(Bless));
+        assert_eq!(reference_mode_from(Some("1"), Some("0")), Ok(Bless));
+        assert_eq!(reference_mode_from(Some("1"), Some("")), Ok(Bless));
+        assert_eq!(reference_mode_from(Some("0"), Some("true")), Ok(Compare));
+        assert_eq!(reference_mode_from(Some(""), None), Ok(Compare));
+        assert_eq!(reference_mode_from(Some("false"), None), Ok(Compare));
+        for ci in ["true", "1", "TRUE", "yes"] {
+            let err = reference_mode_from(Some("1"), Some(ci)).unwrap_err();
+            assert!(err.contains("refused under CI") && err.contains(&format!("CI={ci}")), "{err}");
+        }
+    }
+
+    // A blessing run never reports success.
+    #[test]
+    #[should_panic(expected = "NOT compared")]
+    fn a_blessed_test_fails() {
+        blessed(std::path::Path::new("references/x.png"));
+    }
 
     // The metric itself, on pairs with known answers.
     #[test]

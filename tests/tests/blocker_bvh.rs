@@ -35,6 +35,25 @@ struct TraversePush {
     cap: u32,
 }
 
+// The kernel's structs against the compiled kernel (engine::gpu::layout_check; see struct_layouts.rs).
+#[test]
+fn kernel_structs_match_the_shader() {
+    use engine::gpu::layout_check::check_all;
+    let compiler = engine::gpu::ShaderCompiler::new(engine::gpu::default_shader_root()).expect("shaderc");
+    let hosts = [
+        engine::layout_check!(Query, "tests/bvh_traverse.comp", struct "Query", [a, b, c]),
+        engine::layout_check!(
+            TraversePush,
+            "tests/bvh_traverse.comp",
+            push_constants,
+            [query_count, sphere_count, mode, cap]
+        ),
+    ];
+    if let Err(e) = check_all(&compiler, &hosts) {
+        panic!("{e}");
+    }
+}
+
 fn build_on_gpu(gpu: &Gpu, pass: &BlockerBvhPass, spheres: &[[f32; 4]]) -> Vec<GpuBvhNode> {
     let n = spheres.len() as u32;
     let sb = gpu.upload_buffer("test-spheres", BufferDesc::gpu_only(16), spheres).unwrap();

@@ -1,5 +1,6 @@
 //! Image test of the default scene against the reference in tests/references/, by FLIP mean.
-//! A missing reference fails; `cargo xtask bless` (ENGINE_BLESS=1) writes it. On failure
+//! A missing reference fails; `cargo xtask bless` (ENGINE_BLESS=1) writes it: a blessing run fails
+//! ("NOT compared") and is refused under CI (engine_tests::reference_mode). On failure
 //! `-actual.png` and `-diff.png` are written next to the reference.
 
 use engine::renderer::RenderSettings;
@@ -22,10 +23,9 @@ fn rgb(rgba: &[u8]) -> Vec<u8> {
 /// blessing); on failure write `<name>-actual.png` and `<name>-diff.png` beside it.
 fn check_against_reference(name: &str, w: u32, h: u32, ldr: &[u8], threshold: f32) {
     let reference = references().join(format!("{name}.png"));
-    if std::env::var_os("ENGINE_BLESS").is_some() {
+    if engine_tests::reference_mode() == engine_tests::ReferenceMode::Bless {
         engine::output::write_png(&reference, w, h, ldr).expect("write reference");
-        eprintln!("blessed {}", reference.display());
-        return;
+        engine_tests::blessed(&reference);
     }
     let (rw, rh, ref_rgba) = engine::output::read_png(&reference)
         .unwrap_or_else(|e| panic!("missing reference image ({e}); run `cargo xtask bless` to create it"));

@@ -329,7 +329,7 @@ fn hard_cases_and_the_thin_shells_pass() {
         };
         let mut got: Vec<[DVec3; 3]> = Vec::new();
         for c in &clusters {
-            let (first, count) = (c.range[0] as usize, c.range[1] as usize);
+            let (first, count) = (c.first as usize, c.count as usize);
             assert!(count <= 32);
             for t in &tris[first..first + count] {
                 let v = [t.v0, t.v1, t.v2].map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64));

@@ -3,9 +3,11 @@
 //! A [`Gpu`] owns the instance, the chosen device, one graphics+compute queue, the gpu-allocator
 //! allocator and the validation messenger. Resources ([`Buffer`], [`Image`]) are `{ raw, desc,
 //! allocation }` values destroyed explicitly by value; [`Gpu::shutdown`] turns leaked allocations
-//! and validation errors into an error, so tests fail on either.
+//! and validation errors into an error, so tests fail on either, and the tests' context
+//! ([`testing::TestGpu`]) fails a test that forgets to call it.
 
 mod context;
+pub mod layout_check;
 mod pipeline;
 mod recorder;
 mod resources;
@@ -19,7 +21,7 @@ pub use pipeline::{Binding, ComputePipeline, GraphicsPipeline, GraphicsPipelineD
 pub use recorder::{Frame, PassTiming, Recorder};
 pub use resources::{Buffer, BufferDesc, Image, ImageDesc, ImageFormat, Memory};
 pub use shader::{ShaderCompiler, ShaderModuleInfo, ShaderStage};
-pub use spirv::{DescriptorKind, ReflectedBinding, Reflection};
+pub use spirv::{DescriptorKind, MemberLayout, ReflectedBinding, Reflection, Scalar, ScalarKind, StructLayout};
 pub use swapchain::{surface_extensions, Swapchain, SwapchainImage};
 
 /// Errors of the GPU layer.

@@ -8,11 +8,84 @@
 //! layout(push_constant) uniform Push { uint count; } pc;
 //! ```
 
-use super::{Binding, BufferDesc, Gpu, GpuDesc, Result, ValidationMode};
+use super::{Binding, BufferDesc, Gpu, GpuDesc, GpuError, Result, ValidationMode};
+use ash::vk;
 
-/// A GPU context for tests: validation layer required, quiet.
-pub fn test_gpu() -> Result<Gpu> {
-    Gpu::new(&GpuDesc { validation: ValidationMode::Required, verbose: false, ..GpuDesc::default() })
+/// A GPU context for tests: validation layer required, quiet, and checked even when the test
+/// forgets [`TestGpu::shutdown`].
+pub fn test_gpu() -> Result<TestGpu> {
+    let gpu = Gpu::new(&GpuDesc { validation: ValidationMode::Required, verbose: false, ..GpuDesc::default() })?;
+    Ok(TestGpu { gpu: Some(gpu) })
+}
+
+/// The [`Gpu`] of a test. It derefs to the `Gpu`; [`TestGpu::shutdown`] tears down and returns the
+/// leaks and validation errors as an error, like [`Gpu::shutdown`]. A test that never calls it still
+/// fails: dropping a `TestGpu` runs the same teardown and panics on any problem.
+///
+/// Why a guard here and not a panic in `Gpu`'s own `Drop`: the demos and the viewer drop their `Gpu`
+/// on every error path, where an error is already on its way to the user; a panic there would replace
+/// that message (or abort, inside winit's event loop). Tests are where a leak or a validation error
+/// must fail loudly, so only the test context panics.
+///
+/// The panic happens only when the thread is not already panicking: a test that fails an assertion
+/// unwinds through this `Drop`, and a second panic during unwinding would abort the whole test binary
+/// (every other test's result lost, "panic in a destructor during cleanup"). Then the problems are
+/// printed instead, after the test's own failure message.
+pub struct TestGpu {
+    gpu: Option<Gpu>,
+}
+
+impl TestGpu {
+    /// Tear down (as [`Gpu::shutdown`]): an error listing leaked allocations and validation errors.
+    pub fn shutdown(mut self) -> Result<()> {
+        match self.gpu.take() {
+            Some(gpu) => gpu.shutdown(),
+            None => Ok(()),
+        }
+    }
+}
+
+impl std::ops::Deref for TestGpu {
+    type Target = Gpu;
+    fn deref(&self) -> &Gpu {
+        // Only `shutdown` (by value) and `drop` take the context out.
+        self.gpu.as_ref().expect("TestGpu used after shutdown")
+    }
+}
+
+impl Drop for TestGpu {
+    fn drop(&mut self) {
+        let Some(gpu) = self.gpu.take() else { return };
+        if let Err(e) = gpu.shutdown() {
+            if std::thread::panicking() {
+                eprintln!("{e}\n(found while dropping the test's GPU during a panic: not raised again)");
+            } else {
+                panic!("{e}\n(found when the test's GPU was dropped without shutdown())");
+            }
+        }
+    }
+}
+
+/// Canary support: make one call that breaks a valid-usage rule the Khronos validation layer checks
+/// and that lavapipe survives, so a test can prove a validation error fails the run. The call creates
+/// a sampler with anisotropic filtering although the device was created without the
+/// `samplerAnisotropy` feature (VUID-VkSamplerCreateInfo-anisotropyEnable-01070); drivers support
+/// anisotropy and ignore the flag, so nothing else goes wrong. Returns the validation errors seen
+/// by the call (the layer reports synchronously, in the calling thread).
+pub fn provoke_validation_error(gpu: &Gpu) -> Result<Vec<String>> {
+    let before = gpu.validation_errors().len();
+    let info = vk::SamplerCreateInfo::default().anisotropy_enable(true).max_anisotropy(2.0).max_lod(1.0);
+    // SAFETY: a plain create on a valid device; the sampler (if the layer let the call through) is
+    // destroyed at once and never used.
+    let sampler = unsafe { gpu.device.create_sampler(&info, None) };
+    match sampler {
+        // SAFETY: created above from this device, unused.
+        Ok(s) => unsafe { gpu.device.destroy_sampler(s, None) },
+        // The layer may stop an invalid call (VK_ERROR_VALIDATION_FAILED_EXT): the error is recorded.
+        Err(vk::Result::ERROR_VALIDATION_FAILED_EXT) => {}
+        Err(result) => return Err(GpuError::Vk { call: "vkCreateSampler", result }),
+    }
+    Ok(gpu.validation_errors().split_off(before))
 }
 
 /// Run `shader` (relative to shaders-glsl) with `count` invocations over `input`; return
@@ -41,7 +114,7 @@ pub fn run_f32_kernel(gpu: &Gpu, shader: &str, input: &[f32], output_len: usize,
                 v
             })
         }
-        (Err(e), _) | (_, Err(e)) => Err(super::GpuError::Other(e.to_string())),
+        (Err(e), _) | (_, Err(e)) => Err(GpuError::Other(e.to_string())),
     };
     if let Ok(b) = input_buf {
         gpu.destroy_buffer(b);

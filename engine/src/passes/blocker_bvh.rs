@@ -22,12 +22,13 @@ const RADIX_TILE: u32 = 1024;
 /// in the first buffer).
 const RADIX_PASSES: u32 = 8;
 
+/// Push constants of the radix sort steps (`Push` in shaders-glsl/blocker_bvh/radix.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct RadixPush {
-    n: u32,
-    shift: u32,
-    tiles: u32,
+pub struct RadixPush {
+    pub n: u32,
+    pub shift: u32,
+    pub tiles: u32,
 }
 
 struct Scratch {

@@ -15,9 +15,9 @@ use bytemuck::{Pod, Zeroable};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    sphere_count: u32,
-    bone_count: u32,
+pub struct AnimatePush {
+    pub sphere_count: u32,
+    pub bone_count: u32,
 }
 
 pub struct BlockerSpheresPass {
@@ -35,7 +35,7 @@ impl BlockerSpheresPass {
             return Ok(());
         }
         rec.begin_pass("blocker_spheres");
-        let push = Push { sphere_count: scene.blockers.sphere_count, bone_count: scene.geometry.bone_count };
+        let push = AnimatePush { sphere_count: scene.blockers.sphere_count, bone_count: scene.geometry.bone_count };
         rec.dispatch(
             &self.pipeline,
             &[

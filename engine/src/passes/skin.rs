@@ -5,6 +5,14 @@
 use crate::gpu::{Binding, ComputePipeline, Gpu, Recorder, Result};
 use crate::resources::GpuScene;
 
+/// Push constants of shaders-glsl/skin/skin.comp.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SkinPush {
+    pub vertex_count: u32,
+    pub bone_count: u32,
+}
+
 pub struct SkinPass {
     pipeline: ComputePipeline,
 }
@@ -24,7 +32,10 @@ impl SkinPass {
                 Binding::buffer("Bones", &scene.geometry.bones),
                 Binding::buffer("VertexSkins", &scene.geometry.vertex_skins),
             ],
-            bytemuck::cast_slice(&[scene.geometry.vertex_count, scene.geometry.bone_count]),
+            bytemuck::bytes_of(&SkinPush {
+                vertex_count: scene.geometry.vertex_count,
+                bone_count: scene.geometry.bone_count,
+            }),
             [scene.geometry.vertex_count, 1, 1],
         )
     }

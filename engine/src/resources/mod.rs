@@ -113,8 +113,10 @@ impl GpuScene {
             let base = vertices.len() as u32;
             for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
                 vertices.push(GpuVertex {
-                    position: [p.x, p.y, p.z, i as f32],
-                    normal: [n.x, n.y, n.z, inst.material as f32],
+                    position: p.to_array(),
+                    instance: i as f32,
+                    normal: n.to_array(),
+                    material: inst.material as f32,
                 });
             }
             indices.extend(mesh.indices.iter().map(|&k| base + k));

@@ -17,21 +17,32 @@
 
 layout(binding = 8) uniform sampler2D prefiltered_env;
 layout(binding = 13) uniform sampler2D irradiance_map;
+// Twin: engine::passes::shade::isg::GpuSgLobe.
 struct EnvLobe {
-    vec4 axis_lambda;
-    vec4 mu;
+    vec3 axis;
+    float lambda;
+    vec3 mu;
+    float pad0;
 };
 layout(std430, binding = 9) readonly buffer EnvSgs { EnvLobe env_lobes[]; };
 layout(std430, binding = 10) readonly buffer IsgTable { vec4 isg_table[]; };
 layout(std430, binding = 11) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
-// ints: K, patches per side, evaluator (bit 0: 0 table, 1 paper) | diffuse mode (bits 1–2: 0 sg,
-// 1 ratio, 2 map), sphere count;
-// floats: ln ε, node threshold (patch widths), cosine-SG λ, cosine-SG μ.
-layout(std430, binding = 12) readonly buffer IsgParams {
-    uvec4 isg_ints;
-    vec4 isg_floats;
-    vec4 isg_shared;  // x: the shared gather's node-size threshold (radians), from prepare
+// Twin: engine::passes::shade::isg::GpuIsgParams.
+struct IsgParams {
+    uint lobe_count;          // K: environment lobes in EnvSgs
+    uint side;                // patches per side of the visibility grid
+    uint evaluator;           // 0 table, 1 paper
+    uint sphere_count;
+    float log_epsilon;        // ln ε
+    float node_threshold;     // patch widths
+    float cosine_lambda;      // the cosine SG's λ
+    float cosine_mu;          // the cosine SG's μ
+    float gather_take_whole;  // the shared gather's node-size threshold (radians), from prepare
+    uint diffuse_mode;        // 0 sg, 1 ratio, 2 map
+    uint pad0;
+    uint pad1;
 };
+layout(std430, binding = 12) readonly buffer IsgParamsBuf { IsgParams isg; };
 
 #define ISG_LUT_FETCH(i) isg_table[i]
 #define ISG_BVH_NODE(i) bvh_nodes[i]
@@ -60,7 +71,7 @@ float isg_full_integral(float lambda) {
 IsgGrid isg_hemisphere_mask(vec3 p, vec3 n, IsgSettings st, uint spheres, out uint mask[ISG_MAX_SIDE]) {
     IsgGrid g = isg_grid(n, 0.0, st);
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
-    if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg_shared.x, spheres);
+    if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg.gather_take_whole, spheres);
     isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
     return g;
 }
@@ -146,27 +157,27 @@ vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, uint mask[ISG_MAX_SIDE
 
 vec3 shade_point(ShadePoint sp) {
     IsgSettings st;
-    st.side = int(isg_ints.y);
-    st.evaluator = int(isg_ints.z & 1u);
-    uint diffuse_mode = (isg_ints.z >> 1u) & 3u;
+    st.side = int(isg.side);
+    st.evaluator = int(isg.evaluator);
+    uint diffuse_mode = isg.diffuse_mode;
     bool diffuse_ratio = diffuse_mode == 1u;
-    st.log_epsilon = isg_floats.x;
-    st.node_threshold = isg_floats.y;
-    uint spheres = isg_ints.w;
-    float cos_lambda = isg_floats.z;
-    float cos_mu = isg_floats.w;
+    st.log_epsilon = isg.log_epsilon;
+    st.node_threshold = isg.node_threshold;
+    uint spheres = isg.sphere_count;
+    float cos_lambda = isg.cosine_lambda;
+    float cos_mu = isg.cosine_mu;
     vec3 n = sp.normal;
     isg_thin_begin(sp.position, n);
 
     // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole below
     // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
     // whose blockers overflow the list (ISG_MAX_BLOCKERS) traverse once per lobe instead.
-    uint k_count = diffuse_mode == 2u ? 0u : isg_ints.x;
+    uint k_count = diffuse_mode == 2u ? 0u : isg.lobe_count;
     IsgBlockers blockers;
     blockers.count = 0;
     blockers.dropped = 0;
     if (spheres > 0u && k_count > 0u) {
-        isg_gather(sp.position, n, n, ISG_HALF_PI, isg_shared.x, spheres, blockers);
+        isg_gather(sp.position, n, n, ISG_HALF_PI, isg.gather_take_whole, spheres, blockers);
     }
     vec3 e = vec3(0.0);
     vec3 e_full = vec3(0.0);
@@ -174,7 +185,7 @@ vec3 shade_point(ShadePoint sp) {
         EnvLobe l = env_lobes[k];
         vec3 axis;
         float lambda;
-        float log_mu = sg_product_log(l.axis_lambda.xyz, l.axis_lambda.w, 1.0, n, cos_lambda, cos_mu, axis, lambda);
+        float log_mu = sg_product_log(l.axis, l.lambda, 1.0, n, cos_lambda, cos_mu, axis, lambda);
         // A full blocker list would lose occlusion: such points traverse per lobe instead.
         vec2 occ = blockers.dropped == 0 ? isg_occlusion_of(blockers, n, axis, lambda, st)
                                          : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
@@ -205,7 +216,7 @@ vec3 shade_point(ShadePoint sp) {
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return result;
     if (brdf_kind(sp.material) != BRDF_BLINN_PHONG) return result + isg_specular_lobes(sp, st, spheres, cos_lambda, cos_mu);
-    float s = sp.material.specular.w;
+    float s = sp.material.shininess;
     vec3 spec = blinn_phong_prefiltered(prefiltered_env, n, sp.view, ks, s);
     float ratio = 1.0;
     if (spheres > 0u || isg_thin_present()) {

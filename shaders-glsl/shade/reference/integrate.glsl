@@ -149,8 +149,8 @@ float env_pdf(vec3 d, out ivec2 texel) {
 // ---- lights ----
 // Cone of light j seen from p: returns 1 − cos θ_max (stable for small lights), or 2 if p is inside.
 float light_cone(uint j, vec3 p, out vec3 axis, out float dist) {
-    vec3 c = lights[j].center_radius.xyz;
-    float r = lights[j].center_radius.w;
+    vec3 c = lights[j].center;
+    float r = lights[j].radius;
     vec3 d = c - p;
     dist = length(d);
     axis = dist > 0.0 ? d / dist : vec3(0.0, 1.0, 0.0);
@@ -161,8 +161,8 @@ float light_cone(uint j, vec3 p, out vec3 axis, out float dist) {
 
 // Distance along unit d from p to light j's surface (entry; exit when p is inside), or -1.
 float light_hit(uint j, vec3 p, vec3 d) {
-    vec3 c = lights[j].center_radius.xyz;
-    float r = lights[j].center_radius.w;
+    vec3 c = lights[j].center;
+    float r = lights[j].radius;
     vec3 oc = c - p;
     float b = dot(d, oc);
     float q = dot(oc, oc) - b * b;

@@ -166,14 +166,14 @@ layout(std430, binding = 17) readonly buffer ThinClusters { ThinCluster thin_clu
 // are culled by their bounding spheres.
 float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
     float best = t_max;
-    if (thin_clusters[0].range.y == 0u) return best;
+    if (thin_clusters[0].count == 0u) return best;
     uint clusters = uint(thin_clusters.length());
     for (uint k = 0u; k < clusters; ++k) {
         ThinCluster cl = thin_clusters[k];
-        if (cl.range.y == 0u) continue;
+        if (cl.count == 0u) continue;
         vec2 t = ray_sphere(o, d, cl.bound);
         if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
-        for (uint i = cl.range.x; i < cl.range.x + cl.range.y; ++i) {
+        for (uint i = cl.first; i < cl.first + cl.count; ++i) {
             ThinTriangle tri = thin_triangles[i];
             float orient;
             vec3 p = g_receiver_p;

@@ -8,7 +8,7 @@ layout(std430, binding = 4) writeonly buffer VertexRadiance { vec4 vertex_radian
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= frame.size.z) return;
+    if (i >= frame.vertex_count) return;
     Vertex v = world[i];
     vec3 n = v.normal.xyz;
     vec3 result = vec3(0.0);
@@ -20,7 +20,7 @@ void main() {
         sp.view = normalize(frame.eye.xyz - v.position.xyz);
         n = normalize(n);
         sp.normal = dot(n, sp.view) < 0.0 ? -n : n;
-        sp.material = materials[uint(v.normal.w)];
+        sp.material = materials[uint(v.material)];
         result = accumulate(i, sp);
     }
     vertex_radiance[i] = vec4(result, 1.0);

@@ -183,11 +183,27 @@ fn has_cargo_tool(sub: &str, component: &str) -> bool {
     false
 }
 
+/// Re-render the image tests' references, then check them with a normal run. A blessing test writes
+/// its reference and fails ("NOT compared": it compared nothing), so the first run's status says
+/// nothing; the second run, without ENGINE_BLESS, is the test and decides. Refused under CI (as the
+/// tests refuse ENGINE_BLESS there, engine_tests::reference_mode).
 fn bless() -> Result<()> {
-    let mut c = cargo();
-    c.env("ENGINE_BLESS", "1").env("ENGINE_VALIDATION", "1");
-    c.args(["test", "-p", "engine-tests", "--test", "image"]);
-    run(c)
+    if std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "0" && !v.eq_ignore_ascii_case("false")) {
+        bail!("`cargo xtask bless` is refused under CI: bless on a developer machine and commit the references");
+    }
+    let image_tests = || {
+        let mut c = cargo();
+        c.env("ENGINE_VALIDATION", "1").env_remove("ENGINE_BLESS");
+        c.args(["test", "-p", "engine-tests", "--test", "image"]);
+        c
+    };
+    let mut write = image_tests();
+    write.env("ENGINE_BLESS", "1");
+    let status = write.status().context("running the image tests with ENGINE_BLESS=1")?;
+    eprintln!("xtask: references written (that run fails by design: {status}); checking them with a normal run");
+    run(image_tests()).context("the image tests fail against the references just written")?;
+    eprintln!("xtask: references blessed and checked");
+    Ok(())
 }
 
 fn spheres(rest: &[String]) -> Result<()> {

@@ -52,7 +52,7 @@ pub struct ReferenceParams {
     pub ray_offset: f32,
     pub env_total: f32,
     pub sphere_count: u32,
-    pub pad: f32,
+    pub pad0: f32,
 }
 
 /// What blocks the rays.
@@ -221,7 +221,7 @@ fn world_triangles(gpu: &Gpu, scene: &Geometry) -> Result<Vec<[Vec3; 3]>> {
         .iter()
         .map(|v| {
             let model =
-                objects.get(v.position[3] as usize).map(|o| Mat4::from_cols_array(&o.model)).unwrap_or(Mat4::IDENTITY);
+                objects.get(v.instance as usize).map(|o| Mat4::from_cols_array(&o.model)).unwrap_or(Mat4::IDENTITY);
             (model * Vec4::new(v.position[0], v.position[1], v.position[2], 1.0)).truncate()
         })
         .collect();
@@ -386,7 +386,7 @@ impl Reference {
             )));
         }
         let scene_diagonal =
-            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.max) - Vec3::from(n.min)).length());
+            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.hi) - Vec3::from(n.lo)).length());
         let mut made: Vec<Buffer> = Vec::new();
         let built = (|| -> Result<()> {
             made.push(gpu.upload_buffer("reference-env-marginal", BufferDesc::gpu_only(0), &env.marginal)?);
@@ -442,7 +442,7 @@ impl Technique for Reference {
         };
         // A new view (camera, resolution) restarts accumulation; exposure does not change radiance.
         let mut view = inputs.frame.read::<FrameData>()?.first().copied().unwrap_or_default();
-        view.params[1] = 0.0;
+        view.exposure = 0.0;
         if self.view.get() != Some(view) {
             self.reset();
             self.view.set(Some(view));
@@ -486,7 +486,7 @@ impl Technique for Reference {
             ray_offset: self.options.ray_offset * t.scene_diagonal,
             env_total: t.env_total,
             sphere_count: blockers.sphere_count,
-            pad: 0.0,
+            pad0: 0.0,
         };
         let pixel = self.pixel_accum.borrow();
         let accum = match target {

