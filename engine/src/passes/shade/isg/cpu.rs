@@ -229,6 +229,60 @@ pub fn map_occluded_patches_with_thin(
     out
 }
 
+/// Visibility of a spherical light (cap: unit `axis`, half-angle from `sin_alpha`/`cos_alpha`; `None`:
+/// the receiver is inside the light, which fills every direction) in the hemisphere grid above n with
+/// the blockers marked (twin of `isg_light_visibility` in shaders-glsl/shade/isg/shade.glsl):
+/// 1 − Σ_occluded C_p / Σ C_p over the patches whose centres lie in the cap; a cap that holds no patch
+/// centre takes the patch that holds its axis (1 when the axis is below the grid).
+pub fn light_visibility(
+    p: DVec3,
+    n: DVec3,
+    o: &IsgOptions,
+    spheres: &[Sphere],
+    thin: &[[DVec3; 3]],
+    cap: Option<(DVec3, f64, f64)>,
+) -> f64 {
+    let g = grid(n, 0.0, o);
+    let mut occluded = vec![vec![false; g.side]; g.side];
+    if !mark_blockers(&mut occluded, &g, p, n, spheres, thin) {
+        return 1.0;
+    }
+    let mut in_cap = vec![vec![false; g.side]; g.side];
+    let (axis, psi) = match cap {
+        Some((axis, sin_alpha, cos_alpha)) => (axis, sin_alpha.atan2(cos_alpha)),
+        None => (n, PI),
+    };
+    mark_cap(&mut in_cap, &g, axis, psi);
+    let (mut total, mut hidden) = (0.0, 0.0);
+    for i in 0..g.side {
+        let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
+        let sin2 = 0.5 * ((t1 - t1.sin() * t1.cos()) - (t0 - t0.sin() * t0.cos()));
+        for j in (0..g.side).filter(|&j| in_cap[i][j]) {
+            let p0 = g.lo + j as f64 * g.delta;
+            let w = sin2 * (p0.cos() - (p0 + g.delta).cos());
+            total += w;
+            if occluded[i][j] {
+                hidden += w;
+            }
+        }
+    }
+    if total > 0.0 {
+        return (1.0 - hidden / total).clamp(0.0, 1.0);
+    }
+    let (ux, uy, uz) = (axis.dot(g.x), axis.dot(g.y), axis.dot(g.z));
+    if uz <= 0.0 {
+        return 1.0;
+    }
+    let theta = (ux * ux + uz * uz).sqrt().atan2(uy);
+    let phi = uz.atan2(ux);
+    let cell = |a: f64| (((a - g.lo) / g.delta).floor().max(0.0) as usize).min(g.side - 1);
+    if occluded[cell(theta)][cell(phi)] {
+        0.0
+    } else {
+        1.0
+    }
+}
+
 /// Visible integral of the SG (axis, λ) with amplitude exp(log_mu): μ (F(λ) − H(λ) · occluded).
 fn visible_integral(log_mu: f64, lambda: f64, occluded: f64) -> f64 {
     let full = 2.0 * PI * sphere_unit(lambda);
