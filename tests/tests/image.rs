@@ -99,3 +99,31 @@ fn default_scene_shows_the_environment() {
     let (lo, hi) = lum.iter().fold((f32::MAX, f32::MIN), |(l, m), v| (l.min(*v), m.max(*v)));
     assert!(hi > 1.3 * lo, "no lighting variation across the bunny: {lo}..{hi}");
 }
+
+// Every registered technique at its defaults on the `lamp` scene (the bunny, its 64 blocker spheres, the
+// dimmed courtyard and two spherical lights), 64×48: a technique is image-tested by being registered
+// (its reference is `technique-<name>-lamp.png`, written by `cargo xtask bless`). Same threshold and
+// reason as above; the reference technique renders one deterministic frame (4 samples per pixel).
+#[test]
+fn every_technique_on_the_lamp_scene_matches_its_reference() {
+    let gpu = engine_tests::gpu();
+    let scene = demos::scenes::build("lamp", None).expect("lamp scene");
+    let (w, h) = (64, 48);
+    let mut images = Vec::new();
+    for entry in engine::passes::shade::TECHNIQUES {
+        let settings = RenderSettings { width: w, height: h, technique: entry.name.into(), ..Default::default() };
+        let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
+        assert!(hdr.iter().all(|v| v.is_finite()), "{}: non-finite pixel", entry.name);
+        images.push((format!("technique-{}-lamp", entry.name), ldr));
+    }
+    gpu.shutdown().expect("clean teardown");
+    if engine_tests::reference_mode() == engine_tests::ReferenceMode::Bless {
+        // Write every technique's reference before the first check ends the blessing run.
+        for (name, ldr) in &images {
+            engine::output::write_png(&references().join(format!("{name}.png")), w, h, ldr).expect("write reference");
+        }
+    }
+    for (name, ldr) in &images {
+        check_against_reference(name, w, h, ldr, FLIP_MEAN_THRESHOLD);
+    }
+}
