@@ -10,6 +10,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+const INSTALL_HINT: &str = "Install a driver: apt-get install mesa-vulkan-drivers (lavapipe, CPU) or your GPU's driver";
 
 /// Whether the Khronos validation layer is loaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,6 +112,33 @@ pub struct Gpu {
     pub info: AdapterInfo,
     pub(crate) timestamps_supported: bool,
     shut_down: bool,
+}
+
+/// What [`Gpu::new`] makes before the device: handed to `create_device` and back on failure, so that
+/// teardown runs in reverse creation order.
+struct InstanceParts {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    debug_utils: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    log: Box<ValidationLog>,
+}
+
+impl InstanceParts {
+    /// Destroy the messenger, then the instance, then free the messenger's user data, then unload the
+    /// loader, in that order (each later one is used by the earlier ones).
+    fn destroy(self) {
+        let Self { entry, instance, debug_utils, log } = self;
+        // SAFETY: nothing created from the instance is alive (create_device destroyed what it made before
+        // returning its error); entry is still loaded and log still allocated across these calls.
+        unsafe {
+            if let Some((du, m)) = debug_utils {
+                du.destroy_debug_utils_messenger(m, None);
+            }
+            instance.destroy_instance(None);
+        }
+        drop(log);
+        drop(entry);
+    }
 }
 
 unsafe extern "system" fn debug_callback(
@@ -226,49 +254,43 @@ impl Gpu {
         let debug_utils = if validation {
             let du = ext::debug_utils::Instance::new(&entry, &instance);
             // SAFETY: the messenger's user data (log) is boxed and outlives the messenger.
-            let m = unsafe { du.create_debug_utils_messenger(&messenger_info, None) }
-                .vk("vkCreateDebugUtilsMessengerEXT")?;
-            Some((du, m))
+            match unsafe { du.create_debug_utils_messenger(&messenger_info, None) } {
+                Ok(m) => Some((du, m)),
+                Err(result) => {
+                    // SAFETY: nothing else was created from the instance; entry is still loaded.
+                    unsafe { instance.destroy_instance(None) };
+                    return Err(GpuError::Vk { call: "vkCreateDebugUtilsMessengerEXT", result });
+                }
+            }
         } else {
             None
         };
 
-        match Self::create_device(entry, instance, debug_utils, log, desc, validation) {
+        match Self::create_device(InstanceParts { entry, instance, debug_utils, log }, desc, validation) {
             Ok(gpu) => Ok(gpu),
-            Err((e, cleanup)) => {
-                cleanup();
+            Err((e, parts)) => {
+                parts.destroy();
                 Err(e)
             }
         }
     }
 
-    #[allow(clippy::type_complexity)]
+    /// Choose the adapter and create the device from `parts`. On failure everything made here from the
+    /// device is already destroyed, and `parts` comes back whole so that [`InstanceParts::destroy`] can end
+    /// the messenger and the instance while the loader (`entry`) and the messenger's user data (`log`)
+    /// are still alive. (Dropping them first, as an earlier version did, unloaded libvulkan under the
+    /// cleanup: `--device NoSuchGPU` segfaulted instead of printing the adapters present.)
     fn create_device(
-        entry: ash::Entry,
-        instance: ash::Instance,
-        debug_utils: Option<(ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-        log: Box<ValidationLog>,
+        parts: InstanceParts,
         desc: &GpuDesc,
         validation: bool,
-    ) -> std::result::Result<Self, (GpuError, Box<dyn FnOnce()>)> {
-        let destroy_instance = {
-            let instance = instance.clone();
-            let du = debug_utils.clone();
-            move || {
-                // SAFETY: nothing created from the instance is alive when device creation failed.
-                unsafe {
-                    if let Some((du, m)) = du {
-                        du.destroy_debug_utils_messenger(m, None);
-                    }
-                    instance.destroy_instance(None);
-                }
-            }
-        };
+    ) -> std::result::Result<Self, (GpuError, InstanceParts)> {
         macro_rules! fail {
             ($e:expr) => {
-                return Err(($e, Box::new(destroy_instance)))
+                return Err(($e, parts))
             };
         }
+        let instance = &parts.instance;
         // SAFETY: enumeration on a valid instance.
         let physicals = match unsafe { instance.enumerate_physical_devices() } {
             Ok(p) => p,
@@ -322,13 +344,20 @@ impl Gpu {
                         p.device_name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default()
                     })
                     .collect();
-                fail!(GpuError::NoDevice(format!("no adapter matches --device {want:?}; adapters present: {names:?}")));
+                fail!(GpuError::NoDevice(if names.is_empty() {
+                    format!("no adapter matches --device {want:?}: the Vulkan loader found no device at all. {INSTALL_HINT}")
+                } else {
+                    format!(
+                        "no adapter matches --device {want:?} (a case-insensitive part of the name); available adapters: {}",
+                        names.join(", ")
+                    )
+                }));
             }
         }
         candidates.sort_by_key(|c| type_rank(c.1.device_type));
         let Some((physical, props, queue_family, name, ts_bits)) = candidates.into_iter().next() else {
             fail!(GpuError::NoDevice(if physicals.is_empty() {
-                "the Vulkan loader found no device. Install a driver: apt-get install mesa-vulkan-drivers (lavapipe, CPU) or your GPU's driver".into()
+                format!("the Vulkan loader found no device. {INSTALL_HINT}")
             } else {
                 format!("no adapter fits: {}", rejected.join("; "))
             }));
@@ -454,10 +483,11 @@ impl Gpu {
                 if validation { ", validation on" } else { "" }
             );
         }
-        let debug_device = validation.then(|| ext::debug_utils::Device::new(&instance, &device));
-        let push_descriptor = khr::push_descriptor::Device::new(&instance, &device);
-        let surface_instance = windowed.then(|| khr::surface::Instance::new(&entry, &instance));
-        let swapchain_device = windowed.then(|| khr::swapchain::Device::new(&instance, &device));
+        let debug_device = validation.then(|| ext::debug_utils::Device::new(instance, &device));
+        let push_descriptor = khr::push_descriptor::Device::new(instance, &device);
+        let surface_instance = windowed.then(|| khr::surface::Instance::new(&parts.entry, instance));
+        let swapchain_device = windowed.then(|| khr::swapchain::Device::new(instance, &device));
+        let InstanceParts { entry, instance, debug_utils, log } = parts;
         Ok(Self {
             _entry: entry,
             instance,
