@@ -268,7 +268,8 @@ impl Gpu {
 
         match Self::create_device(InstanceParts { entry, instance, debug_utils, log }, desc, validation) {
             Ok(gpu) => Ok(gpu),
-            Err((e, parts)) => {
+            Err(failed) => {
+                let (e, parts) = *failed;
                 parts.destroy();
                 Err(e)
             }
@@ -284,10 +285,10 @@ impl Gpu {
         parts: InstanceParts,
         desc: &GpuDesc,
         validation: bool,
-    ) -> std::result::Result<Self, (GpuError, InstanceParts)> {
+    ) -> std::result::Result<Self, Box<(GpuError, InstanceParts)>> {
         macro_rules! fail {
             ($e:expr) => {
-                return Err(($e, parts))
+                return Err(Box::new(($e, parts)))
             };
         }
         let instance = &parts.instance;
