@@ -148,10 +148,63 @@ pub struct GltfScene {
 /// Load a glTF 2.0 file (.gltf or .glb): the default scene's node hierarchy with transforms, every
 /// triangle primitive as a mesh, and base colour / metallic / roughness factors as materials.
 /// `material_base` offsets the material indices (materials are appended to a scene's list).
+///
+/// Malformed files are errors naming the file, never a crash: the `gltf` crates panic on some inputs they
+/// fail to validate (out-of-range accessors, `unreachable!`, assertions), so the import runs under
+/// `catch_unwind`; and the node graph is checked to be a forest (glTF 2.0 §3.5.3: no cycles, no node
+/// with two parents) before any mesh is copied.
 pub fn load_gltf(path: &Path, material_base: usize) -> Result<GltfScene> {
     check_exists(path)?;
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_gltf_unguarded(path, material_base)))
+        .unwrap_or_else(|_| Err(SceneError::invalid(path, "not a valid glTF file (the glTF decoder panicked on it)")))
+}
+
+/// glTF 2.0 §3.5.3: "the node hierarchy MUST be a set of disjoint strict trees": no node is its own
+/// ancestor and none has two parents. Checked on the indices alone, before anything is copied (a node
+/// that was its own child used to be expanded a million times, copying its mesh on every visit).
+fn check_node_forest(doc: &gltf::Document) -> std::result::Result<(), String> {
+    let n = doc.nodes().len();
+    let mut parent: Vec<Option<usize>> = vec![None; n];
+    for node in doc.nodes() {
+        for child in node.children() {
+            let c = child.index();
+            if c == node.index() {
+                return Err(format!("node {c} is its own child"));
+            }
+            if let Some(p) = parent[c] {
+                return Err(format!("node {c} has two parents ({p} and {})", node.index()));
+            }
+            parent[c] = Some(node.index());
+        }
+    }
+    // With one parent each, a cycle is a parent chain that comes back to a node on it. Walk each chain
+    // up once, marking the nodes on it (1) and, when it ends at a root or a checked node, done (2): O(n).
+    let mut state = vec![0u8; n];
+    let mut chain = Vec::new();
+    for start in 0..n {
+        let mut at = Some(start);
+        while let Some(i) = at {
+            match state[i] {
+                1 => return Err(format!("node {i} is its own ancestor (a cycle)")),
+                2 => break,
+                _ => {
+                    state[i] = 1;
+                    chain.push(i);
+                    at = parent[i];
+                }
+            }
+        }
+        for i in chain.drain(..) {
+            state[i] = 2;
+        }
+    }
+    Ok(())
+}
+
+fn load_gltf_unguarded(path: &Path, material_base: usize) -> Result<GltfScene> {
     let (doc, buffers, _images) =
         gltf::import(path).map_err(|e| SceneError::invalid(path, format!("not a valid glTF file: {e}")))?;
+    check_node_forest(&doc).map_err(|m| SceneError::invalid(path, format!("not a valid glTF file: {m}")))?;
     let mut out = GltfScene::default();
     for m in doc.materials() {
         let pbr = m.pbr_metallic_roughness();

@@ -6,7 +6,7 @@ mod mesh;
 pub mod triangle_bvh;
 
 pub use blockers::{SceneBlockers, Skin};
-pub use env::{load_environment, load_environment_with_repairs};
+pub use env::{load_environment, load_environment_with_repairs, MAX_ENV_SIDE, MAX_ENV_TEXELS};
 pub use mesh::{compute_normals, load_gltf, load_obj, GltfScene, Mesh};
 
 use crate::options::{Kind, OptionSpec};

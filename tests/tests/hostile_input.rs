@@ -1,0 +1,200 @@
+//! Inputs that used to kill the process (issue 14, defects 2 and 3): each must now be an error naming the
+//! file, quickly, with no abort, panic or runaway allocation.
+//! - Environment maps whose header announces a huge image (a Radiance `-Y 65536 +X 65536` header in 8 KB
+//!   asked for 51.5 GB; corrupt OpenEXR dataWindows asked for up to 3.4 PB) or a file too short for it.
+//! - glTF files the `gltf` crates panic on, and node graphs with cycles (once a million visits, copying a
+//!   mesh on each).
+
+use engine::scene::{load_environment, load_gltf, MAX_ENV_TEXELS};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+fn tmp(name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hostile-input-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+fn assert_err_names(err: impl std::fmt::Display, path: &Path, what: &str) {
+    let s = err.to_string();
+    assert!(s.contains(&path.display().to_string()), "error does not name the file: {s}");
+    assert!(s.to_lowercase().contains(&what.to_lowercase()), "error does not say '{what}': {s}");
+}
+
+/// Run `f`, require it to finish in under 2 s.
+fn quick<T>(what: &str, f: impl FnOnce() -> T) -> T {
+    let t0 = Instant::now();
+    let r = f();
+    assert!(t0.elapsed() < Duration::from_secs(2), "{what} took {:?}", t0.elapsed());
+    r
+}
+
+#[test]
+fn hdr_headers_announcing_huge_images_are_refused() {
+    let hdr = |res: &str| {
+        let mut b = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n{res}\n").into_bytes();
+        b.resize(8192, 0x80);
+        b
+    };
+    // Over the documented maximum (the 51.5 GB request).
+    let p = tmp("huge.hdr", &hdr("-Y 65536 +X 65536"));
+    assert_err_names(quick("huge.hdr", || load_environment(&p)).unwrap_err(), &p, "larger than");
+    // Within the maximum but far more than 8 KB can encode.
+    let p = tmp("short.hdr", &hdr("-Y 8192 +X 16384"));
+    assert_err_names(quick("short.hdr", || load_environment(&p)).unwrap_err(), &p, "truncated");
+    // Overflowing numbers.
+    let p = tmp("overflow.hdr", &hdr("-Y 18446744073709551615 +X 18446744073709551615"));
+    assert_err_names(quick("overflow.hdr", || load_environment(&p)).unwrap_err(), &p, "Radiance");
+}
+
+/// A small, valid EXR written by the `exr` crate (uncompressed, 8 × 4).
+fn tiny_exr() -> Vec<u8> {
+    use exr::prelude::*;
+    let layer = Layer::new(
+        (8, 4),
+        LayerAttributes::named("rgb"),
+        Encoding::UNCOMPRESSED,
+        SpecificChannels::rgb(|p: Vec2<usize>| (p.x() as f32, p.y() as f32, 0.5f32)),
+    );
+    let mut out = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer).write().to_buffered(&mut out).expect("write tiny exr");
+    out.into_inner()
+}
+
+/// Overwrite the `dataWindow` box2i (xMin, yMin, xMax, yMax) of the first header.
+fn patch_data_window(bytes: &mut [u8], b: [i32; 4]) {
+    let at = bytes.windows(17).position(|w| w == b"dataWindow\0box2i\0").expect("dataWindow") + 17 + 4;
+    for (k, v) in b.iter().enumerate() {
+        bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+}
+
+#[test]
+fn exr_headers_announcing_huge_images_are_refused() {
+    let tiny = tiny_exr();
+    let p = tmp("tiny.exr", &tiny);
+    let map = load_environment(&p).expect("the unpatched tiny EXR loads");
+    assert_eq!((map.width, map.height), (8, 4));
+
+    let shipped = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/envmaps/courtyard.exr"))
+        .expect("courtyard.exr");
+    for (name, base) in [("tiny", &tiny), ("courtyard", &shipped)] {
+        let cases: [(&str, [i32; 4], &str); 4] = [
+            ("petabytes", [0, 0, i32::MAX - 1, i32::MAX - 1], "larger than"),
+            ("inverted", [0, 0, -5, 10], "inverted"),
+            ("overflow", [i32::MIN, i32::MIN, i32::MAX, i32::MAX], "larger than"),
+            // Within the maximum (16384 × 8192) but far more chunks than the tiny file holds.
+            ("short", [0, 0, 16383, 8191], "need at least"),
+        ];
+        for (case, window, what) in cases {
+            if name == "courtyard" && case == "short" {
+                continue; // 2 MB holds the offset table of a 16K map; the tiny file does not
+            }
+            let mut bytes = base.clone();
+            patch_data_window(&mut bytes, window);
+            let p = tmp(&format!("{name}-{case}.exr"), &bytes);
+            assert_err_names(quick(case, || load_environment(&p)).unwrap_err(), &p, what);
+        }
+        // Truncated: within the header, and within the pixel data.
+        for (cut, at) in [("header", 200), ("pixels", base.len() * 2 / 3)] {
+            let p = tmp(&format!("{name}-truncated-{cut}.exr"), &base[..at]);
+            assert_err_names(quick(cut, || load_environment(&p)).unwrap_err(), &p, "OpenEXR");
+        }
+    }
+    assert_eq!(MAX_ENV_TEXELS, 16384 * 8192);
+}
+
+#[test]
+fn mutated_exr_headers_never_crash() {
+    // Every byte of the tiny file set to 0x00, 0xff, 0x7f and flipped in its low bit: each load returns
+    // (Ok or an error naming the file), none panics or aborts. The file has no more than a few hundred bytes.
+    let tiny = tiny_exr();
+    let (mut ok, mut err) = (0, 0);
+    let t0 = Instant::now();
+    for i in 0..tiny.len() {
+        for v in [0x00u8, 0xff, 0x7f, tiny[i] ^ 1] {
+            let mut bytes = tiny.clone();
+            bytes[i] = v;
+            let p = tmp("mutated.exr", &bytes);
+            match load_environment(&p) {
+                Ok(_) => ok += 1,
+                Err(e) => {
+                    assert!(e.to_string().contains(&p.display().to_string()), "{e}");
+                    err += 1;
+                }
+            }
+        }
+    }
+    eprintln!("{} mutations of {} bytes: {ok} loaded, {err} refused in {:?}", ok + err, tiny.len(), t0.elapsed());
+    assert!(err > 0 && ok > 0);
+}
+
+/// A one-triangle glTF with an embedded buffer; `nodes` and `accessors` are spliced in as JSON.
+fn gltf(nodes: &str, accessors: &str, position: usize) -> Vec<u8> {
+    format!(
+        r#"{{
+  "asset": {{ "version": "2.0" }},
+  "scene": 0,
+  "scenes": [ {{ "nodes": [0] }} ],
+  "nodes": {nodes},
+  "meshes": [ {{ "primitives": [ {{ "attributes": {{ "POSITION": {position} }} }} ] }} ],
+  "buffers": [ {{ "byteLength": 36,
+    "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA" }} ],
+  "bufferViews": [ {{ "buffer": 0, "byteOffset": 0, "byteLength": 36 }} ],
+  "accessors": {accessors}
+}}"#
+    )
+    .into_bytes()
+}
+
+const GOOD_ACCESSOR: &str = r#"[ { "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+    "min": [0, 0, 0], "max": [1, 1, 0] } ]"#;
+
+#[test]
+fn malformed_gltf_is_an_error_naming_the_file() {
+    let p = tmp("good.gltf", &gltf(r#"[ { "mesh": 0 } ]"#, GOOD_ACCESSOR, 0));
+    let scene = load_gltf(&p, 0).expect("the unmodified one-triangle file loads");
+    assert_eq!(scene.meshes.len(), 1);
+
+    let cases: [(&str, Vec<u8>, &str); 6] = [
+        ("accessor-out-of-range", gltf(r#"[ { "mesh": 0 } ]"#, GOOD_ACCESSOR, 7), "glTF"),
+        (
+            "accessor-past-buffer",
+            gltf(
+                r#"[ { "mesh": 0 } ]"#,
+                r#"[ { "bufferView": 0, "byteOffset": 1000000, "componentType": 5126, "count": 1000000,
+                    "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0] } ]"#,
+                0,
+            ),
+            "glTF",
+        ),
+        (
+            "bufferview-out-of-range",
+            gltf(
+                r#"[ { "mesh": 0 } ]"#,
+                r#"[ { "bufferView": 9, "componentType": 5126, "count": 3, "type": "VEC3",
+                    "min": [0, 0, 0], "max": [1, 1, 0] } ]"#,
+                0,
+            ),
+            "glTF",
+        ),
+        ("own-child", gltf(r#"[ { "mesh": 0, "children": [0] } ]"#, GOOD_ACCESSOR, 0), "own child"),
+        (
+            "two-node-cycle",
+            gltf(r#"[ { "mesh": 0, "children": [1] }, { "mesh": 0, "children": [0] } ]"#, GOOD_ACCESSOR, 0),
+            "cycle",
+        ),
+        (
+            "two-parents",
+            gltf(r#"[ { "children": [1, 2] }, { "children": [2] }, { "mesh": 0 } ]"#, GOOD_ACCESSOR, 0),
+            "two parents",
+        ),
+    ];
+    for (name, bytes, what) in cases {
+        let p = tmp(&format!("{name}.gltf"), &bytes);
+        let err = quick(name, || load_gltf(&p, 0)).unwrap_err();
+        assert_err_names(&err, &p, what);
+    }
+}
