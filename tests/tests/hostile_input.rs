@@ -63,11 +63,24 @@ fn tiny_exr() -> Vec<u8> {
     out.into_inner()
 }
 
-/// Overwrite the `dataWindow` box2i (xMin, yMin, xMax, yMax) of the first header.
+/// Overwrite the `dataWindow` box2i (xMin, yMin, xMax, yMax) of the first header, and its `chunkCount`
+/// to match (as a consistent but hostile writer would: the `exr` crate refuses a mismatch by itself).
 fn patch_data_window(bytes: &mut [u8], b: [i32; 4]) {
-    let at = bytes.windows(17).position(|w| w == b"dataWindow\0box2i\0").expect("dataWindow") + 17 + 4;
+    let find = |bytes: &[u8], key: &[u8]| bytes.windows(key.len()).position(|w| w == key).map(|i| i + key.len() + 4);
+    let at = find(bytes, b"dataWindow\0box2i\0").expect("dataWindow");
     for (k, v) in b.iter().enumerate() {
         bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    let lines = match find(bytes, b"compression\0compression\0").map(|i| bytes[i]) {
+        Some(0..=2) | None => 1i64,
+        Some(3 | 5) => 16,
+        Some(9) => 256,
+        Some(_) => 32,
+    };
+    if let Some(at) = find(bytes, b"chunkCount\0int\0") {
+        let h = b[3] as i64 - b[1] as i64 + 1;
+        let chunks = (h.max(0) + lines - 1) / lines;
+        bytes[at..at + 4].copy_from_slice(&(chunks.clamp(0, i32::MAX as i64) as i32).to_le_bytes());
     }
 }
 
@@ -81,8 +94,12 @@ fn exr_headers_announcing_huge_images_are_refused() {
     let shipped = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/envmaps/courtyard.exr"))
         .expect("courtyard.exr");
     for (name, base) in [("tiny", &tiny), ("courtyard", &shipped)] {
-        let cases: [(&str, [i32; 4], &str); 4] = [
-            ("petabytes", [0, 0, i32::MAX - 1, i32::MAX - 1], "larger than"),
+        let cases: [(&str, [i32; 4], &str); 6] = [
+            // 2^24 × 2^24 texels: the 3.4 PB request that aborted the process.
+            ("petabytes", [0, 0, (1 << 24) - 1, (1 << 24) - 1], "larger than"),
+            // 2^30 × 2^30: `vec!` panicked with "capacity overflow".
+            ("capacity-overflow", [0, 0, (1 << 30) - 1, (1 << 30) - 1], "larger than"),
+            ("integer-maximum", [0, 0, i32::MAX - 1, i32::MAX - 1], "larger than"),
             ("inverted", [0, 0, -5, 10], "inverted"),
             ("overflow", [i32::MIN, i32::MIN, i32::MAX, i32::MAX], "larger than"),
             // Within the maximum (16384 × 8192) but far more chunks than the tiny file holds.
