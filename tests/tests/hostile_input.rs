@@ -148,8 +148,33 @@ fn mutated_exr_headers_never_crash() {
     assert!(err > 0 && ok > 0);
 }
 
-/// A one-triangle glTF with an embedded buffer; `nodes` and `accessors` are spliced in as JSON.
+/// Standard base64 (RFC 4648 §4) for the embedded buffer.
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
+        }
+    }
+    out
+}
+
+/// Triangles in the embedded buffer: enough that copying the mesh on every visit of a cycle (what the old
+/// loader did, up to a million times) is far slower than the 2 s allowed.
+const TRIANGLES: usize = 1000;
+
+/// A glTF of [`TRIANGLES`] triangles with an embedded buffer; `nodes` and `accessors` are spliced in as
+/// JSON, `position` is the POSITION accessor's index.
 fn gltf(nodes: &str, accessors: &str, position: usize) -> Vec<u8> {
+    let mut buffer = Vec::new();
+    for k in 0..TRIANGLES {
+        for v in [[k as f32, 0.0, 0.0], [k as f32 + 1.0, 0.0, 0.0], [k as f32, 1.0, 0.0]] {
+            buffer.extend(v.iter().flat_map(|x| x.to_le_bytes()));
+        }
+    }
+    let (len, uri) = (buffer.len(), base64(&buffer));
     format!(
         r#"{{
   "asset": {{ "version": "2.0" }},
@@ -157,26 +182,32 @@ fn gltf(nodes: &str, accessors: &str, position: usize) -> Vec<u8> {
   "scenes": [ {{ "nodes": [0] }} ],
   "nodes": {nodes},
   "meshes": [ {{ "primitives": [ {{ "attributes": {{ "POSITION": {position} }} }} ] }} ],
-  "buffers": [ {{ "byteLength": 36,
-    "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA" }} ],
-  "bufferViews": [ {{ "buffer": 0, "byteOffset": 0, "byteLength": 36 }} ],
+  "buffers": [ {{ "byteLength": {len}, "uri": "data:application/octet-stream;base64,{uri}" }} ],
+  "bufferViews": [ {{ "buffer": 0, "byteOffset": 0, "byteLength": {len} }} ],
   "accessors": {accessors}
 }}"#
     )
     .into_bytes()
 }
 
-const GOOD_ACCESSOR: &str = r#"[ { "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-    "min": [0, 0, 0], "max": [1, 1, 0] } ]"#;
+fn good_accessor() -> String {
+    format!(
+        r#"[ {{ "bufferView": 0, "componentType": 5126, "count": {}, "type": "VEC3",
+    "min": [0, 0, 0], "max": [{}, 1, 0] }} ]"#,
+        3 * TRIANGLES,
+        TRIANGLES
+    )
+}
 
 #[test]
 fn malformed_gltf_is_an_error_naming_the_file() {
-    let p = tmp("good.gltf", &gltf(r#"[ { "mesh": 0 } ]"#, GOOD_ACCESSOR, 0));
-    let scene = load_gltf(&p, 0).expect("the unmodified one-triangle file loads");
+    let p = tmp("good.gltf", &gltf(r#"[ { "mesh": 0 } ]"#, &good_accessor(), 0));
+    let scene = load_gltf(&p, 0).expect("the unmodified file loads");
     assert_eq!(scene.meshes.len(), 1);
+    assert_eq!(scene.meshes[0].indices.len(), 3 * TRIANGLES);
 
     let cases: [(&str, Vec<u8>, &str); 6] = [
-        ("accessor-out-of-range", gltf(r#"[ { "mesh": 0 } ]"#, GOOD_ACCESSOR, 7), "glTF"),
+        ("accessor-out-of-range", gltf(r#"[ { "mesh": 0 } ]"#, &good_accessor(), 7), "glTF"),
         (
             "accessor-past-buffer",
             gltf(
@@ -197,21 +228,22 @@ fn malformed_gltf_is_an_error_naming_the_file() {
             ),
             "glTF",
         ),
-        ("own-child", gltf(r#"[ { "mesh": 0, "children": [0] } ]"#, GOOD_ACCESSOR, 0), "own child"),
+        ("own-child", gltf(r#"[ { "mesh": 0, "children": [0] } ]"#, &good_accessor(), 0), "own child"),
         (
             "two-node-cycle",
-            gltf(r#"[ { "mesh": 0, "children": [1] }, { "mesh": 0, "children": [0] } ]"#, GOOD_ACCESSOR, 0),
+            gltf(r#"[ { "mesh": 0, "children": [1] }, { "mesh": 0, "children": [0] } ]"#, &good_accessor(), 0),
             "cycle",
         ),
         (
             "two-parents",
-            gltf(r#"[ { "children": [1, 2] }, { "children": [2] }, { "mesh": 0 } ]"#, GOOD_ACCESSOR, 0),
+            gltf(r#"[ { "children": [1, 2] }, { "children": [2] }, { "mesh": 0 } ]"#, &good_accessor(), 0),
             "two parents",
         ),
     ];
     for (name, bytes, what) in cases {
         let p = tmp(&format!("{name}.gltf"), &bytes);
         let err = quick(name, || load_gltf(&p, 0)).unwrap_err();
+        eprintln!("{name}: {err}");
         assert_err_names(&err, &p, what);
     }
 }
