@@ -131,6 +131,22 @@ pub fn cap_cosine_fraction(p: DVec3, c: DVec3, r: f64) -> Option<f64> {
     (alpha + beta <= std::f64::consts::FRAC_PI_2).then(|| d.y * r * r / (dist * dist * dist))
 }
 
+/// Write `bytes` to `<temp>/<folder>-<pid>/<name>` and return the path (bad-input tests).
+pub fn temp_file(folder: &str, name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("{folder}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp folder");
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).expect("temp file");
+    p
+}
+
+/// The error names the file and says `what` (case-insensitive).
+pub fn assert_err_names(err: impl std::fmt::Display, path: &std::path::Path, what: &str) {
+    let s = err.to_string();
+    assert!(s.contains(&path.display().to_string()), "error does not name the file: {s}");
+    assert!(s.to_lowercase().contains(&what.to_lowercase()), "error does not say '{what}': {s}");
+}
+
 #[cfg(test)]
 mod tests {
     use super::{blessed, reference_mode_from, relative_rmse, ReferenceMode};

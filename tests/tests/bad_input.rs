@@ -2,21 +2,12 @@
 //! repair), never a panic, a hang or a validation error.
 
 use engine::scene::{load_environment, load_environment_with_repairs, load_gltf, load_obj, Mesh};
+use engine_tests::assert_err_names;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
 fn tmp(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bad-input-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p
-}
-
-fn assert_err_names(err: impl std::fmt::Display, path: &Path, what: &str) {
-    let s = err.to_string();
-    assert!(s.contains(&path.display().to_string()), "error does not name the file: {s}");
-    assert!(s.to_lowercase().contains(&what.to_lowercase()), "error does not say '{what}': {s}");
+    engine_tests::temp_file("bad-input", name, bytes)
 }
 
 #[test]

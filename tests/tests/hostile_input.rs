@@ -6,21 +6,12 @@
 //!   mesh on each).
 
 use engine::scene::{load_environment, load_gltf, MAX_ENV_TEXELS};
+use engine_tests::assert_err_names;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 fn tmp(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hostile-input-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p
-}
-
-fn assert_err_names(err: impl std::fmt::Display, path: &Path, what: &str) {
-    let s = err.to_string();
-    assert!(s.contains(&path.display().to_string()), "error does not name the file: {s}");
-    assert!(s.to_lowercase().contains(&what.to_lowercase()), "error does not say '{what}': {s}");
+    engine_tests::temp_file("hostile-input", name, bytes)
 }
 
 /// Run `f`, require it to finish in under 2 s.
