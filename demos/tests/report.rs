@@ -3,7 +3,6 @@
 //! plots that are well-formed SVG, and a README whose tables and thumbnails point at files that exist.
 
 use demos::report::{self, CSV_HEADER};
-use engine::gpu::{Gpu, GpuDesc};
 
 /// Split a CSV line, honouring double quotes.
 fn cells(line: &str) -> Vec<String> {
@@ -24,7 +23,8 @@ fn tiny_sweep_runs_end_to_end() {
     let sweep = report::load_sweep(&report::default_config(), "tiny").expect("tiny sweep in tools/report/sweep.json");
     let out = std::env::temp_dir().join(format!("report-tiny-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let gpu = Gpu::new(&GpuDesc::default()).expect("gpu");
+    // The validation layer required, leaks and validation errors fail the test (even without shutdown).
+    let gpu = engine::gpu::testing::test_gpu().expect("gpu");
     let res = report::run(&gpu, &sweep, &out);
     gpu.shutdown().expect("clean teardown");
     let res = res.expect("tiny sweep");
