@@ -195,6 +195,14 @@ pub fn occlusion_with_thin(
     (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
 }
 
+/// ∫_patch (n·ω) dω of patch (i, j) of the hemisphere grid around n, exactly:
+/// ½[θ − sin θ cos θ]_{θ0}^{θ1} (cos φ0 − cos φ1) (twin of `isg_row_sin2` × the φ factor in shade.glsl).
+fn patch_cosine_weight(g: &Grid, i: usize, j: usize) -> f64 {
+    let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
+    let p0 = g.lo + j as f64 * g.delta;
+    0.5 * ((t1 - t1.sin() * t1.cos()) - (t0 - t0.sin() * t0.cos())) * (p0.cos() - (p0 + g.delta).cos())
+}
+
 /// Diffuse mode `map`: the occluded patches of the P × P grid over the hemisphere above n, each as
 /// (centre direction, cosine-weighted solid angle ∫_patch (n·ω) dω). The shader subtracts
 /// Σ L̄(centre) · weight from E(n), L̄ the environment prefiltered to the patch width.
@@ -216,14 +224,11 @@ pub fn map_occluded_patches_with_thin(
     mark_blockers(&mut mask, &g, p, n, spheres, thin);
     let mut out = Vec::new();
     for (i, row) in mask.iter().enumerate() {
-        let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
-        let sin2 = 0.5 * ((t1 - t1.sin() * t1.cos()) - (t0 - t0.sin() * t0.cos()));
-        let th = 0.5 * (t0 + t1);
+        let th = g.lo + (i as f64 + 0.5) * g.delta;
         for (j, _) in row.iter().enumerate().filter(|(_, &m)| m) {
-            let p0 = g.lo + j as f64 * g.delta;
-            let ph = p0 + 0.5 * g.delta;
+            let ph = g.lo + (j as f64 + 0.5) * g.delta;
             let dir = g.x * (th.sin() * ph.cos()) + g.y * th.cos() + g.z * (th.sin() * ph.sin());
-            out.push((dir, sin2 * (p0.cos() - (p0 + g.delta).cos())));
+            out.push((dir, patch_cosine_weight(&g, i, j)));
         }
     }
     out
@@ -255,11 +260,8 @@ pub fn light_visibility(
     mark_cap(&mut in_cap, &g, axis, psi);
     let (mut total, mut hidden) = (0.0, 0.0);
     for i in 0..g.side {
-        let (t0, t1) = (g.lo + i as f64 * g.delta, g.lo + (i + 1) as f64 * g.delta);
-        let sin2 = 0.5 * ((t1 - t1.sin() * t1.cos()) - (t0 - t0.sin() * t0.cos()));
         for j in (0..g.side).filter(|&j| in_cap[i][j]) {
-            let p0 = g.lo + j as f64 * g.delta;
-            let w = sin2 * (p0.cos() - (p0 + g.delta).cos());
+            let w = patch_cosine_weight(&g, i, j);
             total += w;
             if occluded[i][j] {
                 hidden += w;
