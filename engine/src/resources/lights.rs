@@ -76,3 +76,29 @@ impl LightResources {
         gpu.destroy_buffer(self.buffer);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn bad_lights_are_errors_naming_the_light() {
+        let ok = SphereLight { center: Vec3::new(0.0, 2.0, 0.0), radius: 0.5, radiance: Vec3::splat(3.0) };
+        let g = gpu_lights(&[ok]).expect("a good light");
+        assert_eq!(g[0], GpuSphereLight { center: [0.0, 2.0, 0.0], radius: 0.5, radiance: [3.0; 3], pad0: 0.0 });
+        for (bad, needle) in [
+            (SphereLight { radius: 0.0, ..ok }, "radius"),
+            (SphereLight { radius: -1.0, ..ok }, "radius"),
+            (SphereLight { radius: f32::NAN, ..ok }, "radius"),
+            (SphereLight { radius: f32::INFINITY, ..ok }, "radius"),
+            (SphereLight { center: Vec3::new(f32::INFINITY, 0.0, 0.0), ..ok }, "radius"),
+            (SphereLight { radiance: Vec3::new(-1.0, 0.0, 0.0), ..ok }, "radiance"),
+            (SphereLight { radiance: Vec3::splat(f32::NAN), ..ok }, "radiance"),
+        ] {
+            let e = gpu_lights(&[ok, bad]).unwrap_err().to_string();
+            assert!(e.contains("light 1") && e.contains(needle), "{bad:?}: {e}");
+        }
+        assert!(gpu_lights(&[]).expect("no lights").is_empty());
+    }
+}
