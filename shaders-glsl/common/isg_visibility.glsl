@@ -17,7 +17,8 @@
 // The includer defines, before including this file:
 //   ISG_BVH_NODE(i)   an expression giving BvhNode number i (bvh.glsl), e.g. bvh_nodes[i];
 //   ISG_LUT_FETCH(i)  float number i of the ISG table (isg.glsl), for the table evaluator;
-//   optionally ISG_THIN and the macros of isg_thin.glsl: thin-shell triangles join the blockers.
+//   optionally ISG_THIN and the macros of isg_thin.glsl: thin-shell triangles join the blockers;
+//   optionally ISG_PLANES and the macros of isg_planes.glsl: plane blockers join them.
 #ifndef ISG_VISIBILITY_GLSL
 #define ISG_VISIBILITY_GLSL
 
@@ -72,6 +73,38 @@ uint isg_bit_range(int j0, int j1) {
     return upto & ~((1u << uint(j0)) - 1u);
 }
 
+// Bits of row i's patches whose centre lies in the cap {ω : ω·u ≥ cos ψ}, u given in the grid's
+// coordinates as rho = |(u·x, u·z)|, uy = u·y and phi_c = atan(u·z, u·x) (exact per row: one acos).
+uint isg_cap_row_bits(IsgGrid g, int i, float rho, float uy, float phi_c, float cos_psi) {
+    uint full = isg_bit_range(0, g.side - 1);
+    float last = float(g.side - 1);
+    float th = g.lo + (float(i) + 0.5) * g.delta;
+    float denom = sin(th) * rho;
+    float rhs = cos_psi - cos(th) * uy;
+    if (denom < 1e-7) return rhs <= 0.0 ? full : 0u;
+    float q = rhs / denom;
+    if (q <= -1.0) return full;
+    if (q > 1.0) return 0u;
+    float w = acos(q);
+    uint bits = 0u;
+    for (int k = -1; k <= 1; ++k) {
+        float c = phi_c + 2.0 * ISG_PI * float(k);
+        int j_lo = int(clamp(ceil((c - w - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
+        int j_hi = int(clamp(floor((c + w - g.lo) / g.delta - 0.5), -1.0, last));
+        if (j_lo <= j_hi) bits |= isg_bit_range(j_lo, j_hi);
+    }
+    return bits;
+}
+
+// The grid coordinates of unit u for isg_cap_row_bits: (rho, uy, phi_c), and theta_c in w.
+vec4 isg_cap_coords(IsgGrid g, vec3 u) {
+    float ux = dot(u, g.x);
+    float uy = dot(u, g.y);
+    float uz = dot(u, g.z);
+    float rho = sqrt(ux * ux + uz * uz);
+    return vec4(rho, uy, rho > 0.0 ? atan(uz, ux) : 0.0, atan(rho, uy));
+}
+
 // Patches whose centre lies in the cap of half-angle psi around the unit direction u.
 void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
     uint full = isg_bit_range(0, g.side - 1);
@@ -79,39 +112,13 @@ void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
         for (int i = 0; i < g.side; ++i) mask[i] = full;
         return;
     }
-    float ux = dot(u, g.x);
-    float uy = dot(u, g.y);
-    float uz = dot(u, g.z);
-    float rho = sqrt(ux * ux + uz * uz);
-    float theta_c = atan(rho, uy);
-    float phi_c = rho > 0.0 ? atan(uz, ux) : 0.0;
+    vec4 uc = isg_cap_coords(g, u);
+    float theta_c = uc.w;
     float cos_psi = cos(psi);
     float last = float(g.side - 1);
     int i_lo = int(clamp(ceil((theta_c - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
     int i_hi = int(clamp(floor((theta_c + psi - g.lo) / g.delta - 0.5), -1.0, last));
-    for (int i = i_lo; i <= i_hi; ++i) {
-        float th = g.lo + (float(i) + 0.5) * g.delta;
-        float denom = sin(th) * rho;
-        float rhs = cos_psi - cos(th) * uy;
-        uint bits = 0u;
-        if (denom < 1e-7) {
-            bits = rhs <= 0.0 ? full : 0u;
-        } else {
-            float q = rhs / denom;
-            if (q <= -1.0) {
-                bits = full;
-            } else if (q <= 1.0) {
-                float w = acos(q);
-                for (int k = -1; k <= 1; ++k) {
-                    float c = phi_c + 2.0 * ISG_PI * float(k);
-                    int j_lo = int(clamp(ceil((c - w - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
-                    int j_hi = int(clamp(floor((c + w - g.lo) / g.delta - 0.5), -1.0, last));
-                    if (j_lo <= j_hi) bits |= isg_bit_range(j_lo, j_hi);
-                }
-            }
-        }
-        mask[i] |= bits;
-    }
+    for (int i = i_lo; i <= i_hi; ++i) mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
 }
 
 // Ŝ at a corner given its warped coordinates (table) or its angles (the paper's fit).
@@ -158,6 +165,7 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
 }
 
 #include "isg_thin.glsl"  // thin shells under ISG_THIN, no-op stubs otherwise
+#include "isg_planes.glsl"  // plane blockers under ISG_PLANES, no-op stubs otherwise
 
 // The blockers seen from one receiver, gathered once and shared by all lobes of the point: each as
 // its cap of directions (unit centre direction, half-angle), after the self-shadowing rule.
@@ -230,6 +238,7 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
 #ifdef ISG_THIN
     if (isg_thin_mark(mask, g)) marked = true;  // thin-shell triangles (isg_thin.glsl)
 #endif
+    if (isg_planes_mark(mask, g)) marked = true;  // plane blockers (isg_planes.glsl)
     return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
 }
 

@@ -294,7 +294,7 @@ fn isg_specular_matches_the_f64_twin() {
             let v = (eye - p).normalize();
             let t = brdf::tangent_from_direction(n.to_array(), dir);
             let lobes = brdf::specular_lobes(&model, &fit, ks, n.to_array(), t, v.to_array());
-            let want = cpu::specular(p, n, &lobes, &o, &spheres, &lut, |_, lambda| {
+            let want = cpu::specular(p, n, &lobes, &o, &cpu::Occluders::spheres(&spheres), &lut, |_, lambda| {
                 [engine::math::sg::sg_integral(lambda, c as f64); 3]
             });
             let unshadowed = brdf::specular_sum_constant_env(&lobes, [c as f64; 3]);

@@ -213,7 +213,7 @@ fn isg_lights_match_the_f64_twin() {
         let albedo = if m == 0 { ALBEDO as f64 } else { 0.5 };
         let cap = cap_from_sphere(p.to_array(), lc.to_array(), lr)
             .map(|c| (DVec3::from_array(c.axis), c.sin_alpha, c.cos_alpha));
-        let v = cpu::light_visibility(p, n, &o, &[blocker], &[], cap);
+        let v = cpu::light_visibility(p, n, &o, &cpu::Occluders::spheres(&[blocker]), cap);
         let e = sphere_light_clamped_cosine(p.to_array(), n.to_array(), lc.to_array(), lr);
         let want = albedo / PI * LIGHT.2 as f64 * e * v;
         errors.push((hdr[4 * i + 1] as f64 - want).abs() / scale);

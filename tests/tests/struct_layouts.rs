@@ -17,7 +17,7 @@ use engine::passes::shade::isg::{GpuIsgParams, GpuSgLobe};
 use engine::passes::shade::reference::ReferenceParams;
 use engine::passes::skin::SkinPush;
 use engine::passes::thin_shells::ThinShellsPush;
-use engine::resources::blockers::{GpuBlockerSphere, GpuVertexSkin};
+use engine::resources::blockers::{GpuBlockerPlane, GpuBlockerSphere, GpuVertexSkin};
 use engine::resources::layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 use engine::resources::lights::GpuSphereLight;
 use engine::resources::thin::{GpuThinCluster, GpuThinTriangle};
@@ -92,6 +92,11 @@ fn host_structs() -> Vec<HostLayout> {
         ]),
         layout_check!(GpuSphereLight, "shade/none/vertex.comp", struct "SphereLight", [
             center, radius, radiance, pad0
+        ]),
+        // plane blockers (common/planes.glsl), read by isg and the reference
+        layout_check!(GpuBlockerPlane, "shade/isg/pixel.comp", struct "BlockerPlane", [plane, center, half_u, half_v]),
+        layout_check!(GpuBlockerPlane, "shade/reference/pixel.comp", struct "BlockerPlane", [
+            plane, center, half_u, half_v
         ]),
         layout_check!(TriNode, "shade/reference/pixel.comp", struct "TriNode", [lo, first, hi, count]),
         layout_check!(GpuTriangle, "shade/reference/pixel.comp", struct "Tri", [v0, v1, v2]),

@@ -98,7 +98,8 @@ pub fn scene(angle: f32) -> Scene {
             spheres: vec![Some(spheres(12))],
             skins: vec![Some(skin)],
             bones: bones(angle),
-            thin: Vec::new(),
+            plane_meshes: vec![false, true],
+            ..Default::default()
         },
         camera: Camera { eye: Vec3::new(0.0, 1.5, 3.5), target: Vec3::new(0.0, 0.5, 0.0), fov_y_degrees: 45.0 },
     }

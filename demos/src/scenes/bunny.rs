@@ -1,5 +1,6 @@
 //! `bunny`, the default scene: the Stanford bunny (scaled to unit height) on a ground plane under the
-//! courtyard environment (CC0, Poly Haven), 64 blocker spheres; `--animate` turns it on its base.
+//! courtyard environment (CC0, Poly Haven), 64 blocker spheres and the ground as a plane blocker;
+//! `--animate` turns it on its base.
 
 use super::{Motion, Pose, Rest, SceneEntry, SceneInputs};
 use engine::scene::blockers::fitted_spheres;
@@ -8,7 +9,8 @@ use glam::{Mat4, Vec3};
 
 pub const SCENE: SceneEntry = SceneEntry {
     name: "bunny",
-    summary: "Stanford bunny on a ground plane, courtyard environment, 64 blocker spheres (the default)",
+    summary:
+        "Stanford bunny on a ground plane, courtyard environment, 64 blocker spheres + the ground plane (the default)",
     build: scene,
     motion: Some(TURNTABLE),
 };
@@ -51,7 +53,9 @@ pub fn scene(inputs: &SceneInputs) -> anyhow::Result<Scene> {
         environment,
         environment_intensity: 1.0,
         lights: Vec::new(),
-        blockers: SceneBlockers { spheres: vec![Some(spheres)], ..Default::default() },
+        // The ground is a plane blocker (a rectangle, from its mesh): below the horizon it hides the
+        // environment from the bunny, as the triangles do in the ground truth.
+        blockers: SceneBlockers { spheres: vec![Some(spheres)], plane_meshes: vec![false, true], ..Default::default() },
         camera: Camera { eye: Vec3::new(0.0, 0.9, 2.4), target: Vec3::new(0.0, 0.4, 0.0), fov_y_degrees: 40.0 },
     })
 }

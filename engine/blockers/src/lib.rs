@@ -9,6 +9,8 @@
 //! - [`hierarchy`]: the 4-ary bottom-up sphere hierarchy of SHEXP §6.3 and its per-receiver cut.
 //! - [`traverse`]: bounded-stack traversal of the device node layout (f64 twin of
 //!   `shaders-glsl/common/bvh.glsl`) and a structural check of GPU-built node arrays.
+//! - [`plane`]: plane blockers (half-spaces and rectangles: the ground as a blocker), twins of
+//!   `shaders-glsl/common/planes.glsl`.
 //! - [`geom`]: sphere primitives (merge, subtended angle, cone test), twins of
 //!   `shaders-glsl/common/spheres.glsl`.
 
@@ -18,9 +20,11 @@ pub mod fit;
 pub mod geom;
 pub mod hierarchy;
 pub mod mesh;
+pub mod plane;
 pub mod traverse;
 
 pub use geom::{Cone, Sphere};
+pub use plane::BlockerPlane;
 
 /// Errors at this crate's boundary. Every bad input named in the blockers issue maps to one of these;
 /// no public function panics on bad data.

@@ -1,9 +1,10 @@
 //! Blocker and skinning records in device memory (std430 twins of shaders-glsl/common/skinning.glsl and
 //! blocker_spheres/animate.comp), gathered once per scene by [`gather`], and the blocker BVH's size
-//! limits. Written by the `blocker_spheres` and `blocker_bvh` passes every frame.
+//! limits. Written by the `blocker_spheres` and `blocker_bvh` passes every frame. Plane blockers
+//! ([`GpuBlockerPlane`], world space, static) are gathered here too.
 
 use crate::gpu::{GpuError, Result};
-use crate::scene::blockers::bind_sphere_to_bones;
+use crate::scene::blockers::{bind_sphere_to_bones, BlockerPlane};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 pub use engine_blockers::bvh::GpuBvhNode;
@@ -42,6 +43,94 @@ pub struct GpuBlockerSphere {
     pub pad2: u32,
 }
 
+/// `struct BlockerPlane` of shaders-glsl/common/planes.glsl (twin of engine_blockers::plane):
+/// `plane` = (unit normal m, offset d) of m·x = d; `center.w` = 1 for a rectangle (a two-sided plate
+/// `center + s·half_u + t·half_v`, |s|, |t| ≤ 1), 0 for the half-space m·x < d; `half_u.w` = the
+/// self-shadowing tolerance ε.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuBlockerPlane {
+    pub plane: [f32; 4],
+    pub center: [f32; 4],
+    pub half_u: [f32; 4],
+    pub half_v: [f32; 4],
+}
+
+impl GpuBlockerPlane {
+    pub fn from_plane(p: &BlockerPlane) -> Self {
+        let m = p.normal.as_vec3();
+        let (c, u, v, bounded) = match p.rect {
+            Some((c, u, v)) => (c.as_vec3(), u.as_vec3(), v.as_vec3(), 1.0),
+            None => (p.normal.as_vec3() * p.offset as f32, glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0),
+        };
+        Self {
+            plane: [m.x, m.y, m.z, p.offset as f32],
+            center: [c.x, c.y, c.z, bounded],
+            half_u: [u.x, u.y, u.z, p.epsilon as f32],
+            half_v: [v.x, v.y, v.z, 0.0],
+        }
+    }
+}
+
+/// The header of the `BlockerPlanes` buffer (std430: the array starts at byte 16).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuPlanesHeader {
+    pub count: u32,
+    pub pad: [u32; 3],
+}
+
+/// Most plane blockers a scene may have: every shading point tests each one (they are the few large
+/// flat receivers of a scene, not a general primitive).
+pub const MAX_PLANES: usize = 16;
+
+/// The plane blockers of `scene` in world space: its explicit planes, then one rectangle per instance
+/// of a mesh marked as a plane (its world-space vertices; it must be a flat rectangle). Validated.
+pub fn gather_planes(scene: &Scene) -> Result<Vec<BlockerPlane>> {
+    let b = &scene.blockers;
+    let mut planes = Vec::new();
+    for (k, pl) in b.planes.iter().enumerate() {
+        pl.validate().map_err(|e| GpuError::Other(format!("plane blocker {k}: {e}")))?;
+        planes.push(*pl);
+    }
+    for (i, inst) in scene.instances.iter().enumerate() {
+        if !b.is_plane(inst.mesh) {
+            continue;
+        }
+        let Some(mesh) = scene.meshes.get(inst.mesh) else {
+            return Err(GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)));
+        };
+        if b.spheres_of(inst.mesh).is_some() || b.is_thin(inst.mesh) {
+            return Err(GpuError::Other(format!(
+                "mesh '{}' is marked as a plane blocker and also has spheres or is thin: choose one",
+                mesh.name
+            )));
+        }
+        let m = inst.transform.as_dmat4();
+        let world: Vec<glam::DVec3> = mesh.positions.iter().map(|p| m.transform_point3(p.as_dvec3())).collect();
+        let pl = BlockerPlane::from_flat_mesh(&world, &mesh.indices)
+            .map_err(|e| GpuError::Other(format!("mesh '{}' (instance {i}): {e}", mesh.name)))?;
+        planes.push(pl);
+    }
+    if planes.len() > MAX_PLANES {
+        return Err(GpuError::Other(format!("{} plane blockers, at most {MAX_PLANES}", planes.len())));
+    }
+    Ok(planes)
+}
+
+/// The bytes of the `BlockerPlanes` buffer: header, then at least one record (zero when there is
+/// no plane, so the binding is valid).
+pub fn planes_buffer_words(planes: &[BlockerPlane]) -> Vec<u32> {
+    let header = GpuPlanesHeader { count: planes.len() as u32, pad: [0; 3] };
+    let mut words: Vec<u32> = bytemuck::cast_slice(std::slice::from_ref(&header)).to_vec();
+    let mut records: Vec<GpuBlockerPlane> = planes.iter().map(GpuBlockerPlane::from_plane).collect();
+    if records.is_empty() {
+        records.push(GpuBlockerPlane::default());
+    }
+    words.extend_from_slice(bytemuck::cast_slice(&records));
+    words
+}
+
 /// What [`GpuScene::upload`] puts in device memory for blockers and skinning.
 pub struct BlockerData {
     /// One record per world-space sphere (instances in order, spheres of each in file order).
@@ -50,6 +139,8 @@ pub struct BlockerData {
     pub vertex_skins: Vec<GpuVertexSkin>,
     /// Initial bone matrices (column-major).
     pub bones: Vec<[f32; 16]>,
+    /// Plane blockers in world space ([`gather_planes`]).
+    pub planes: Vec<BlockerPlane>,
 }
 
 /// Gathers the blocker and skin records of `scene` (validated: skin lengths, bone indices, spheres).
@@ -104,5 +195,6 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
     if rest.len() > MAX_SPHERES as usize {
         return Err(GpuError::Other(format!("{} blocker spheres, at most {}", rest.len(), MAX_SPHERES)));
     }
-    Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect() })
+    let planes = gather_planes(scene)?;
+    Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect(), planes })
 }

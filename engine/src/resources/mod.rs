@@ -59,7 +59,7 @@ pub struct Geometry {
     pub bone_count: u32,
 }
 
-/// The blocker spheres: rest records with their instance and bone binding
+/// The blocker spheres and planes: rest records with their instance and bone binding
 /// ([`blockers::GpuBlockerSphere`]), the world-space spheres `vec4(center, radius)` rewritten every
 /// frame by the `blocker_spheres` pass, and their BVH ([`blockers::GpuBvhNode`], root at 0) rebuilt
 /// every frame by the `blocker_bvh` pass. At least one element each, so the bindings are valid
@@ -70,6 +70,11 @@ pub struct BlockerResources {
     pub bvh_nodes: Buffer,
     /// Number of blocker spheres (0: no blocker pass runs).
     pub sphere_count: u32,
+    /// Plane blockers: `BlockerPlanes { uint count; BlockerPlane planes[]; }`
+    /// ([`blockers::GpuBlockerPlane`], world space, static; at least one record).
+    pub planes: Buffer,
+    /// The planes as gathered (world space), for CPU twins and tools.
+    pub cpu_planes: Vec<crate::scene::blockers::BlockerPlane>,
 }
 
 /// Thin shells (`passes::thin_shells`): per thin triangle its scene vertex indices (`uvec4`, built
@@ -141,32 +146,46 @@ impl GpuScene {
         let n = vertices.len() as u64;
         let tri_bytes = std::mem::size_of::<GpuThinTriangle>() as u64 * thin_triangle_count.max(1) as u64;
         let objects_bytes = std::mem::size_of_val(&objects[..]) as u64;
-        let [v, ix, obj, world, radiance, skins, bones, frame, mats, rest, spheres, nodes, ti, tt, tc] = make_buffers(
-            gpu,
-            [
-                &|| gpu.upload_buffer("scene-vertices", BufferDesc::gpu_only(0), &vertices),
-                &|| gpu.upload_buffer("scene-indices", BufferDesc::index(0), &indices),
-                // Host-visible: instance transforms are rewritten by Renderer::set_instance_transform.
-                &|| gpu.create_buffer("scene-objects", BufferDesc::upload(objects_bytes)),
-                &|| gpu.create_buffer("scene-world-vertices", BufferDesc::gpu_only(n * 32)),
-                &|| gpu.upload_buffer("scene-vertex-radiance", BufferDesc::gpu_only(0), &vec![[0f32; 4]; n as usize]),
-                &|| gpu.upload_buffer("scene-vertex-skins", BufferDesc::gpu_only(0), &blocker_data.vertex_skins),
-                &|| gpu.create_buffer("scene-bones", BufferDesc::upload(64 * bone_count.max(1) as u64)),
-                &|| gpu.create_buffer("frame-constants", BufferDesc::upload(std::mem::size_of::<FrameData>() as u64)),
-                &|| gpu.upload_buffer("scene-materials", BufferDesc::gpu_only(0), &materials),
-                &|| gpu.upload_buffer("blocker-rest", BufferDesc::gpu_only(64), &blocker_data.rest),
-                &|| gpu.create_buffer("blocker-spheres", BufferDesc::gpu_only(16 * sphere_count.max(1) as u64)),
-                &|| {
-                    gpu.create_buffer(
-                        "blocker-bvh-nodes",
-                        BufferDesc::gpu_only(blockers::node_buffer_size(sphere_count)),
-                    )
-                },
-                &|| gpu.upload_buffer("thin-indices", BufferDesc::gpu_only(0), &thin_indices),
-                &|| gpu.create_buffer("thin-triangles", BufferDesc::gpu_only(tri_bytes)),
-                &|| gpu.upload_buffer("thin-clusters", BufferDesc::gpu_only(0), &thin_clusters),
-            ],
-        )?;
+        let plane_words = blockers::planes_buffer_words(&blocker_data.planes);
+        let [v, ix, obj, world, radiance, skins, bones, frame, mats, rest, spheres, nodes, planes, ti, tt, tc] =
+            make_buffers(
+                gpu,
+                [
+                    &|| gpu.upload_buffer("scene-vertices", BufferDesc::gpu_only(0), &vertices),
+                    &|| gpu.upload_buffer("scene-indices", BufferDesc::index(0), &indices),
+                    // Host-visible: instance transforms are rewritten by Renderer::set_instance_transform.
+                    &|| gpu.create_buffer("scene-objects", BufferDesc::upload(objects_bytes)),
+                    &|| gpu.create_buffer("scene-world-vertices", BufferDesc::gpu_only(n * 32)),
+                    &|| {
+                        gpu.upload_buffer(
+                            "scene-vertex-radiance",
+                            BufferDesc::gpu_only(0),
+                            &vec![[0f32; 4]; n as usize],
+                        )
+                    },
+                    &|| gpu.upload_buffer("scene-vertex-skins", BufferDesc::gpu_only(0), &blocker_data.vertex_skins),
+                    &|| gpu.create_buffer("scene-bones", BufferDesc::upload(64 * bone_count.max(1) as u64)),
+                    &|| {
+                        gpu.create_buffer(
+                            "frame-constants",
+                            BufferDesc::upload(std::mem::size_of::<FrameData>() as u64),
+                        )
+                    },
+                    &|| gpu.upload_buffer("scene-materials", BufferDesc::gpu_only(0), &materials),
+                    &|| gpu.upload_buffer("blocker-rest", BufferDesc::gpu_only(64), &blocker_data.rest),
+                    &|| gpu.create_buffer("blocker-spheres", BufferDesc::gpu_only(16 * sphere_count.max(1) as u64)),
+                    &|| {
+                        gpu.create_buffer(
+                            "blocker-bvh-nodes",
+                            BufferDesc::gpu_only(blockers::node_buffer_size(sphere_count)),
+                        )
+                    },
+                    &|| gpu.upload_buffer("blocker-planes", BufferDesc::gpu_only(0), &plane_words),
+                    &|| gpu.upload_buffer("thin-indices", BufferDesc::gpu_only(0), &thin_indices),
+                    &|| gpu.create_buffer("thin-triangles", BufferDesc::gpu_only(tri_bytes)),
+                    &|| gpu.upload_buffer("thin-clusters", BufferDesc::gpu_only(0), &thin_clusters),
+                ],
+            )?;
         let geometry = Geometry {
             vertices: v,
             indices: ix,
@@ -179,7 +198,14 @@ impl GpuScene {
             index_count: indices.len() as u32,
             bone_count,
         };
-        let blockers = BlockerResources { rest, spheres, bvh_nodes: nodes, sphere_count };
+        let blockers = BlockerResources {
+            rest,
+            spheres,
+            bvh_nodes: nodes,
+            sphere_count,
+            planes,
+            cpu_planes: blocker_data.planes.clone(),
+        };
         let thin = ThinResources {
             indices: ti,
             triangles: tt,
@@ -247,7 +273,7 @@ impl Geometry {
 
 impl BlockerResources {
     fn destroy(self, gpu: &Gpu) {
-        for b in [self.rest, self.spheres, self.bvh_nodes] {
+        for b in [self.rest, self.spheres, self.bvh_nodes, self.planes] {
             gpu.destroy_buffer(b);
         }
     }

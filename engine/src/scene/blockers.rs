@@ -18,6 +18,7 @@
 use super::Mesh;
 use engine_blockers::file::{load_or_fit, CacheOutcome};
 use engine_blockers::fit::FitSettings;
+pub use engine_blockers::BlockerPlane;
 use engine_blockers::Sphere;
 use glam::{Mat4, Vec3};
 use std::path::Path;
@@ -42,6 +43,12 @@ pub struct SceneBlockers {
     /// Thin-shell mark per mesh (index = mesh index; missing: not thin). A thin mesh's triangles are
     /// its blockers; it must have no sphere set.
     pub thin: Vec<bool>,
+    /// Plane blockers given in world space (half-spaces or rectangles: the ground as a blocker).
+    pub planes: Vec<BlockerPlane>,
+    /// Plane mark per mesh (index = mesh index; missing: not a plane). Every instance of a marked mesh
+    /// becomes a rectangle plane blocker (`BlockerPlane::from_flat_mesh` of its world-space vertices:
+    /// it must be a flat rectangle); it must have no sphere set and not be thin.
+    pub plane_meshes: Vec<bool>,
 }
 
 impl SceneBlockers {
@@ -53,6 +60,9 @@ impl SceneBlockers {
     }
     pub fn is_thin(&self, mesh: usize) -> bool {
         self.thin.get(mesh).copied().unwrap_or(false)
+    }
+    pub fn is_plane(&self, mesh: usize) -> bool {
+        self.plane_meshes.get(mesh).copied().unwrap_or(false)
     }
 }
 

@@ -7,6 +7,8 @@
 // visibility V_j = 1 − Σ_occluded C_p / Σ C_p over the patches of the hemisphere grid above n whose
 // centres lie in the light's cap (the patch holding the cap's axis when no centre does), the same
 // grid and marking as `diffuse=map`, in every diffuse mode. f64 twin: isg::cpu::light_visibility.
+// Blockers: spheres (the BVH), thin-shell triangles and planes (half-spaces and rectangles), each
+// marking the patches whose centre direction it blocks.
 #include "../common.glsl"
 #include "../prefiltered.glsl"
 #include "../lights.glsl"
@@ -58,6 +60,15 @@ layout(std430, binding = 15) readonly buffer ThinClusters { ThinCluster thin_clu
 #define ISG_THIN_CLUSTER(i) thin_clusters[i]
 #define ISG_THIN_CLUSTER_COUNT uint(thin_clusters.length())
 #endif
+// Plane blockers (common/isg_planes.glsl): the scene's half-spaces and rectangles, world space.
+#include "../../common/planes.glsl"
+layout(std430, binding = 21) readonly buffer BlockerPlanes {
+    uint plane_count;
+    BlockerPlane blocker_planes[];  // at least one record (zero when plane_count = 0)
+};
+#define ISG_PLANES
+#define ISG_PLANE_COUNT plane_count
+#define ISG_PLANE(i) blocker_planes[i]
 #include "../../common/isg_visibility.glsl"
 #include "specular.glsl"
 
@@ -73,6 +84,7 @@ IsgGrid isg_hemisphere_mask(vec3 p, vec3 n, IsgSettings st, uint spheres, out ui
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
     if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg.gather_take_whole, spheres);
     isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
+    isg_planes_mark(mask, g);  // plane blockers (common/isg_planes.glsl)
     return g;
 }
 
@@ -168,6 +180,7 @@ vec3 shade_point(ShadePoint sp) {
     float cos_mu = isg.cosine_mu;
     vec3 n = sp.normal;
     isg_thin_begin(sp.position, n);
+    isg_planes_begin(sp.position);
 
     // One gather for all diffuse lobes: the hemisphere above the tangent plane, nodes taken whole below
     // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
@@ -205,7 +218,7 @@ vec3 shade_point(ShadePoint sp) {
         e = irr * ratio;
     }
     // The hemisphere grid with its occluded patches, for `map` and for the lights.
-    bool occluders = spheres > 0u || isg_thin_present();
+    bool occluders = spheres > 0u || isg_thin_present() || isg_planes_present();
     IsgGrid hemi;
     uint mask[ISG_MAX_SIDE];
     if (occluders && (diffuse_mode == 2u || light_count > 0u)) hemi = isg_hemisphere_mask(sp.position, n, st, spheres, mask);
@@ -219,7 +232,7 @@ vec3 shade_point(ShadePoint sp) {
     float s = sp.material.shininess;
     vec3 spec = blinn_phong_prefiltered(prefiltered_env, n, sp.view, ks, s);
     float ratio = 1.0;
-    if (spheres > 0u || isg_thin_present()) {
+    if (occluders) {
         float ndv = max(abs(dot(n, sp.view)), 1e-6);
         vec3 r = normalize(2.0 * dot(n, sp.view) * n - sp.view);
         vec3 axis;

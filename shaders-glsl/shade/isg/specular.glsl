@@ -6,10 +6,11 @@
 #define ISG_SPECULAR_GLSL
 
 // Eq. 9 ratio of one unit lobe (axis, λ) at a point (1 without blockers or for a lobe without extent
-// above the horizon). Blockers: spheres and thin-shell triangles.
+// above the horizon). Blockers: spheres, thin-shell triangles and planes.
 float isg_lobe_visibility_ratio(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint spheres,
                                 float cos_lambda, float cos_mu) {
-    if (spheres == 0u && !isg_thin_present()) return 1.0;  // thin shells: common/isg_thin.glsl
+    // Thin shells: common/isg_thin.glsl; planes: common/isg_planes.glsl.
+    if (spheres == 0u && !isg_thin_present() && !isg_planes_present()) return 1.0;
     vec3 pa;
     float pl;
     sg_product_log(normalize(axis), lambda, 1.0, n, cos_lambda, cos_mu, pa, pl);

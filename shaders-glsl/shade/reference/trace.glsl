@@ -188,4 +188,26 @@ float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
     return best;
 }
 
+// ---- plane blockers (half-spaces and rectangles, world space, common/planes.glsl): part of the sphere
+// proxy, seen through the same self-shadowing rule as in ISG (a receiver on the plane is not shadowed
+// by it) ----
+#include "../../common/planes.glsl"
+layout(std430, binding = 21) readonly buffer BlockerPlanes {
+    uint plane_count;
+    BlockerPlane blocker_planes[];  // at least one record (zero when plane_count = 0)
+};
+
+// Nearest hit distance in (0, t_max) on a plane blocker of the receiver, or t_max.
+float trace_planes(vec3 o, vec3 d, float t_max, bool any_hit) {
+    float best = t_max;
+    for (uint k = 0u; k < plane_count; ++k) {
+        float t = plane_hit(blocker_planes[k], g_receiver_p, o, d, best);
+        if (t > 0.0) {
+            best = t;
+            if (any_hit) return best;
+        }
+    }
+    return best;
+}
+
 #endif

@@ -509,6 +509,7 @@ impl Technique for Reference {
             Binding::buffer("Diagnostics", &t.diagnostics),
             Binding::buffer("BlockerSpheres", &blockers.spheres),
             Binding::buffer("BvhNodes", &blockers.bvh_nodes),
+            Binding::buffer("BlockerPlanes", &blockers.planes),
             Binding::buffer("ThinTriangles", &thin.triangles),
             Binding::buffer("ThinClusters", &thin.clusters),
         ];

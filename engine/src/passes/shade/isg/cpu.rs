@@ -5,6 +5,7 @@
 
 use super::options::{Evaluator, IsgOptions};
 use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
+use engine_blockers::BlockerPlane;
 use engine_math::isg::{isg_normalization, isg_paper, IsgLut};
 use engine_math::sg::{sg_product_log, Sg, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
 use glam::DVec3;
@@ -54,45 +55,92 @@ pub fn grid(axis: DVec3, lambda: f64, o: &IsgOptions) -> Grid {
     }
 }
 
+/// Bits of row i's patches whose centre lies in the cap {ω : ω·u ≥ cos ψ}, u given in the grid's
+/// coordinates ([`cap_coords`]). Twin of `isg_cap_row_bits`.
+pub fn cap_row_bits(g: &Grid, i: usize, (rho, uy, phi_c): (f64, f64, f64), cos_psi: f64) -> u32 {
+    let full = if g.side >= 32 { u32::MAX } else { (1u32 << g.side) - 1 };
+    let last = (g.side - 1) as f64;
+    let th = g.lo + (i as f64 + 0.5) * g.delta;
+    let denom = th.sin() * rho;
+    let rhs = cos_psi - th.cos() * uy;
+    if denom < 1e-7 {
+        return if rhs <= 0.0 { full } else { 0 };
+    }
+    let q = rhs / denom;
+    if q <= -1.0 {
+        return full;
+    }
+    if q > 1.0 {
+        return 0;
+    }
+    let w = q.acos();
+    let mut bits = 0u32;
+    for k in -1..=1 {
+        let c = phi_c + 2.0 * PI * k as f64;
+        let j_lo = ((c - w - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
+        let j_hi = ((c + w - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
+        for j in j_lo..=j_hi {
+            bits |= 1 << j;
+        }
+    }
+    bits
+}
+
+/// The grid coordinates of unit u: (ρ = |(u·x, u·z)|, u·y, φ_c = atan2(u·z, u·x)) and θ_c.
+pub fn cap_coords(g: &Grid, u: DVec3) -> ((f64, f64, f64), f64) {
+    let (ux, uy, uz) = (u.dot(g.x), u.dot(g.y), u.dot(g.z));
+    let rho = (ux * ux + uz * uz).sqrt();
+    ((rho, uy, if rho > 0.0 { uz.atan2(ux) } else { 0.0 }), rho.atan2(uy))
+}
+
+fn or_bits(row: &mut [bool], bits: u32) {
+    for (j, b) in row.iter_mut().enumerate() {
+        *b |= bits >> j & 1 != 0;
+    }
+}
+
 /// Marks (row-major `mask[i][j]`) the patches whose centre lies within `psi` of unit `u`.
 pub fn mark_cap(mask: &mut [Vec<bool>], g: &Grid, u: DVec3, psi: f64) {
     if psi >= PI {
         mask.iter_mut().for_each(|r| r.iter_mut().for_each(|b| *b = true));
         return;
     }
-    let (ux, uy, uz) = (u.dot(g.x), u.dot(g.y), u.dot(g.z));
-    let rho = (ux * ux + uz * uz).sqrt();
-    let theta_c = rho.atan2(uy);
-    let phi_c = if rho > 0.0 { uz.atan2(ux) } else { 0.0 };
+    let (coords, theta_c) = cap_coords(g, u);
     let last = (g.side - 1) as f64;
     let i_lo = ((theta_c - psi - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
     let i_hi = ((theta_c + psi - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
     for i in i_lo..=i_hi {
-        let th = g.lo + (i as f64 + 0.5) * g.delta;
-        let denom = th.sin() * rho;
-        let rhs = psi.cos() - th.cos() * uy;
-        let row = &mut mask[i as usize];
-        if denom < 1e-7 {
-            if rhs <= 0.0 {
-                row.iter_mut().for_each(|b| *b = true);
+        or_bits(&mut mask[i as usize], cap_row_bits(g, i as usize, coords, psi.cos()));
+    }
+}
+
+/// Marks the patches whose centre direction from receiver p is blocked by a plane (twin of
+/// `isg_planes_mark`, shaders-glsl/common/isg_planes.glsl): a half-space's cap of half-angle π/2
+/// around −m, a rectangle's four edge caps intersected row by row. Whether any plane could block
+/// a patch of the grid.
+pub fn mark_planes(mask: &mut [Vec<bool>], g: &Grid, p: DVec3, planes: &[BlockerPlane]) -> bool {
+    let mut marked = false;
+    for pl in planes.iter().filter(|pl| pl.blocks_receiver(p)) {
+        let Some(edges) = pl.edge_normals(p) else {
+            let down = -pl.normal;
+            if engine_blockers::geom::angle_between(g.z, down) <= g.cone + FRAC_PI_2 {
+                mark_cap(mask, g, down, FRAC_PI_2);
+                marked = true;
             }
             continue;
+        };
+        let (c, u, v) = pl.rect.expect("a plane with edges is a rectangle");
+        if !cone_intersects_sphere(&Cone::new(p, g.z, g.cone), &Sphere::new(c, (u + v).length())) {
+            continue;
         }
-        let q = rhs / denom;
-        if q <= -1.0 {
-            row.iter_mut().for_each(|b| *b = true);
-        } else if q <= 1.0 {
-            let w = q.acos();
-            for k in -1..=1 {
-                let c = phi_c + 2.0 * PI * k as f64;
-                let j_lo = ((c - w - g.lo) / g.delta - 0.5).ceil().clamp(0.0, last + 1.0) as i64;
-                let j_hi = ((c + w - g.lo) / g.delta - 0.5).floor().clamp(-1.0, last) as i64;
-                for j in j_lo..=j_hi {
-                    row[j as usize] = true;
-                }
-            }
+        let coords = edges.map(|e| cap_coords(g, e).0);
+        for (i, row) in mask.iter_mut().enumerate() {
+            let bits = coords.iter().fold(u32::MAX, |b, &c| b & cap_row_bits(g, i, c, 0.0));
+            or_bits(row, bits);
         }
+        marked = true;
     }
+    marked
 }
 
 /// Ŝ at a corner with the chosen evaluator.
@@ -127,19 +175,30 @@ pub fn occluded_sum(mask: &[Vec<bool>], g: &Grid, lambda: f64, e: Evaluator, lut
     sum.max(0.0)
 }
 
+/// The blockers a receiver sees: spheres, thin-shell triangles (world space) and planes.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Occluders<'a> {
+    pub spheres: &'a [Sphere],
+    pub thin: &'a [[DVec3; 3]],
+    pub planes: &'a [BlockerPlane],
+}
+
+impl<'a> Occluders<'a> {
+    pub fn spheres(spheres: &'a [Sphere]) -> Self {
+        Self { spheres, ..Self::default() }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.spheres.is_empty() && self.thin.is_empty() && self.planes.is_empty()
+    }
+}
+
 /// Marks grid `g`'s patches occluded, seen from receiver p (unit normal n), by the spheres in the
-/// grid's cone (after the self-shadowing rule) and by the thin triangles; whether any was marked.
-pub fn mark_blockers(
-    mask: &mut [Vec<bool>],
-    g: &Grid,
-    p: DVec3,
-    n: DVec3,
-    spheres: &[Sphere],
-    thin: &[[DVec3; 3]],
-) -> bool {
+/// grid's cone (after the self-shadowing rule), the thin triangles and the planes; whether any was
+/// marked.
+pub fn mark_blockers(mask: &mut [Vec<bool>], g: &Grid, p: DVec3, n: DVec3, occ: &Occluders) -> bool {
     let cone = Cone::new(p, g.z, g.cone);
     let mut marked = false;
-    for s in spheres {
+    for s in occ.spheres {
         if !cone_intersects_sphere(&cone, s) {
             continue;
         }
@@ -155,7 +214,8 @@ pub fn mark_blockers(
         mark_cap(mask, g, d / dist, subtended_half_angle(p, &b));
         marked = true;
     }
-    super::thin::mark_thin(mask, g, p, n, thin) | marked
+    marked |= super::thin::mark_thin(mask, g, p, n, occ.thin);
+    mark_planes(mask, g, p, occ.planes) | marked
 }
 
 /// Occluded parts of the lobe (axis, λ) at receiver p with unit normal n, in Ŝ units: (by the
@@ -169,7 +229,7 @@ pub fn occlusion(
     spheres: &[Sphere],
     lut: &IsgLut,
 ) -> (f64, f64) {
-    occlusion_with_thin(p, n, axis, lambda, o, spheres, &[], lut)
+    occlusion_by(p, n, axis, lambda, o, &Occluders::spheres(spheres), lut)
 }
 
 /// [`occlusion`] with thin-shell triangles (world space) among the blockers ([`super::thin`]).
@@ -184,6 +244,19 @@ pub fn occlusion_with_thin(
     thin: &[[DVec3; 3]],
     lut: &IsgLut,
 ) -> (f64, f64) {
+    occlusion_by(p, n, axis, lambda, o, &Occluders { spheres, thin, planes: &[] }, lut)
+}
+
+/// [`occlusion`] with any [`Occluders`].
+pub fn occlusion_by(
+    p: DVec3,
+    n: DVec3,
+    axis: DVec3,
+    lambda: f64,
+    o: &IsgOptions,
+    occ: &Occluders,
+    lut: &IsgLut,
+) -> (f64, f64) {
     let g = grid(axis, lambda, o);
     let mut mask = vec![vec![false; g.side]; g.side];
     let mut horizon = 0.0;
@@ -191,7 +264,7 @@ pub fn occlusion_with_thin(
         mark_cap(&mut mask, &g, -n, FRAC_PI_2);
         horizon = occluded_sum(&mask, &g, lambda, o.evaluator, lut);
     }
-    let marked = mark_blockers(&mut mask, &g, p, n, spheres, thin);
+    let marked = mark_blockers(&mut mask, &g, p, n, occ);
     (horizon, if marked { occluded_sum(&mask, &g, lambda, o.evaluator, lut) } else { horizon })
 }
 
@@ -219,9 +292,14 @@ pub fn map_occluded_patches_with_thin(
     spheres: &[Sphere],
     thin: &[[DVec3; 3]],
 ) -> Vec<(DVec3, f64)> {
+    map_occluded_patches_by(p, n, o, &Occluders { spheres, thin, planes: &[] })
+}
+
+/// [`map_occluded_patches`] with any [`Occluders`].
+pub fn map_occluded_patches_by(p: DVec3, n: DVec3, o: &IsgOptions, occ: &Occluders) -> Vec<(DVec3, f64)> {
     let g = grid(n, 0.0, o);
     let mut mask = vec![vec![false; g.side]; g.side];
-    mark_blockers(&mut mask, &g, p, n, spheres, thin);
+    mark_blockers(&mut mask, &g, p, n, occ);
     let mut out = Vec::new();
     for (i, row) in mask.iter().enumerate() {
         let th = g.lo + (i as f64 + 0.5) * g.delta;
@@ -239,17 +317,10 @@ pub fn map_occluded_patches_with_thin(
 /// the blockers marked (twin of `isg_light_visibility` in shaders-glsl/shade/isg/shade.glsl):
 /// 1 − Σ_occluded C_p / Σ C_p over the patches whose centres lie in the cap; a cap that holds no patch
 /// centre takes the patch that holds its axis (1 when the axis is below the grid).
-pub fn light_visibility(
-    p: DVec3,
-    n: DVec3,
-    o: &IsgOptions,
-    spheres: &[Sphere],
-    thin: &[[DVec3; 3]],
-    cap: Option<(DVec3, f64, f64)>,
-) -> f64 {
+pub fn light_visibility(p: DVec3, n: DVec3, o: &IsgOptions, occ: &Occluders, cap: Option<(DVec3, f64, f64)>) -> f64 {
     let g = grid(n, 0.0, o);
     let mut occluded = vec![vec![false; g.side]; g.side];
-    if !mark_blockers(&mut occluded, &g, p, n, spheres, thin) {
+    if !mark_blockers(&mut occluded, &g, p, n, occ) {
         return 1.0;
     }
     let mut in_cap = vec![vec![false; g.side]; g.side];
@@ -322,7 +393,7 @@ pub fn shade_diffuse_and_ratio(
     spheres: &[Sphere],
     lut: &IsgLut,
 ) -> ([f64; 3], f64) {
-    shade_diffuse_and_ratio_with_thin(pt, lobes, o, spheres, &[], lut)
+    shade_diffuse_and_ratio_by(pt, lobes, o, &Occluders::spheres(spheres), lut)
 }
 
 /// [`shade_diffuse_and_ratio`] with thin-shell triangles (world space) among the blockers.
@@ -334,20 +405,31 @@ pub fn shade_diffuse_and_ratio_with_thin(
     thin: &[[DVec3; 3]],
     lut: &IsgLut,
 ) -> ([f64; 3], f64) {
+    shade_diffuse_and_ratio_by(pt, lobes, o, &Occluders { spheres, thin, planes: &[] }, lut)
+}
+
+/// [`shade_diffuse_and_ratio`] with any [`Occluders`].
+pub fn shade_diffuse_and_ratio_by(
+    pt: &Point,
+    lobes: &[SgRgb],
+    o: &IsgOptions,
+    occ: &Occluders,
+    lut: &IsgLut,
+) -> ([f64; 3], f64) {
     let n = pt.normal;
     let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
     let mut e = [0.0; 3];
     for l in lobes {
         let prod = sg_product_log(&Sg::new(l.axis, l.lambda, 1.0), &cosine);
         let axis = DVec3::from_array(prod.axis);
-        let (_, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
-        let v = visible_integral(prod.log_mu, prod.lambda, occ);
+        let (_, hidden) = occlusion_by(pt.position, n, axis, prod.lambda, o, occ, lut);
+        let v = visible_integral(prod.log_mu, prod.lambda, hidden);
         for (ec, mu) in e.iter_mut().zip(l.mu) {
             *ec += mu * v;
         }
     }
     let diffuse = [0, 1, 2].map(|c| pt.diffuse[c] / PI * e[c]);
-    let ratio = if pt.specular.iter().all(|&k| k == 0.0) || (spheres.is_empty() && thin.is_empty()) {
+    let ratio = if pt.specular.iter().all(|&k| k == 0.0) || occ.is_empty() {
         1.0
     } else {
         let ndv = n.dot(pt.view).abs().max(1e-6);
@@ -355,11 +437,11 @@ pub fn shade_diffuse_and_ratio_with_thin(
         let lambda = pt.shininess / (4.0 * ndv);
         let prod = sg_product_log(&Sg::new([r.x, r.y, r.z], lambda, 1.0), &cosine);
         let axis = DVec3::from_array(prod.axis);
-        let (hor, occ) = occlusion_with_thin(pt.position, n, axis, prod.lambda, o, spheres, thin, lut);
+        let (hor, hidden) = occlusion_by(pt.position, n, axis, prod.lambda, o, occ, lut);
         let full = 2.0 * PI * sphere_unit(prod.lambda);
         let above = full - isg_normalization(prod.lambda) * hor;
         if above > 0.0 {
-            ((full - isg_normalization(prod.lambda) * occ) / above).clamp(0.0, 1.0)
+            ((full - isg_normalization(prod.lambda) * hidden) / above).clamp(0.0, 1.0)
         } else {
             1.0
         }
@@ -376,20 +458,20 @@ pub fn lobe_visibility_ratio(
     axis: DVec3,
     lambda: f64,
     o: &IsgOptions,
-    spheres: &[Sphere],
+    occ: &Occluders,
     lut: &IsgLut,
 ) -> f64 {
-    if spheres.is_empty() {
+    if occ.is_empty() {
         return 1.0;
     }
     let cosine = Sg::new([n.x, n.y, n.z], COSINE_SG_LAMBDA, COSINE_SG_MU);
     let a = axis.normalize();
     let prod = sg_product_log(&Sg::new([a.x, a.y, a.z], lambda, 1.0), &cosine);
-    let (hor, occ) = occlusion(p, n, DVec3::from_array(prod.axis), prod.lambda, o, spheres, lut);
+    let (hor, hidden) = occlusion_by(p, n, DVec3::from_array(prod.axis), prod.lambda, o, occ, lut);
     let full = 2.0 * PI * sphere_unit(prod.lambda);
     let above = full - isg_normalization(prod.lambda) * hor;
     if above > 0.0 {
-        ((full - isg_normalization(prod.lambda) * occ) / above).clamp(0.0, 1.0)
+        ((full - isg_normalization(prod.lambda) * hidden) / above).clamp(0.0, 1.0)
     } else {
         1.0
     }
@@ -403,13 +485,13 @@ pub fn specular(
     n: DVec3,
     lobes: &[engine_math::brdf::SpecularLobe],
     o: &IsgOptions,
-    spheres: &[Sphere],
+    occ: &Occluders,
     lut: &IsgLut,
     integral: impl Fn([f64; 3], f64) -> [f64; 3],
 ) -> [f64; 3] {
     let mut sum = [0.0; 3];
     for l in lobes.iter().filter(|l| l.weight.iter().any(|&w| w != 0.0)) {
-        let ratio = lobe_visibility_ratio(position, n, DVec3::from_array(l.axis), l.lambda, o, spheres, lut);
+        let ratio = lobe_visibility_ratio(position, n, DVec3::from_array(l.axis), l.lambda, o, occ, lut);
         let i = integral(l.axis, l.lambda);
         for c in 0..3 {
             sum[c] += l.weight[c] * i[c] * ratio;
@@ -495,6 +577,66 @@ mod tests {
         }
         assert!(map_occluded_patches(p, n, &o, &[]).is_empty());
         assert!(map_occluded_patches(p, n, &o, &[Sphere::new(DVec3::new(0.0, -2.0, 0.0), 1.0)]).is_empty());
+    }
+
+    /// Planes in the hemisphere grid: a half-space below a receiver tilted by β hides π(1 − cos β)/2 of
+    /// its cosine-weighted hemisphere (the closed form of seeing the upper hemisphere only); a
+    /// rectangle facing a receiver hides π times its form factor, from either side; a receiver on a
+    /// plane is not shadowed by it; the f64 marking agrees with brute-force ray tests per patch centre.
+    #[test]
+    fn planes_mark_their_directions() {
+        let o = IsgOptions { side: 32, diffuse: Diffuse::Map, ..IsgOptions::default() };
+        let weight = |p: DVec3, n: DVec3, planes: &[BlockerPlane]| -> f64 {
+            map_occluded_patches_by(p, n, &o, &Occluders { planes, ..Occluders::default() })
+                .iter()
+                .map(|(_, w)| w)
+                .sum()
+        };
+        let ground = BlockerPlane::half_space(DVec3::ZERO, DVec3::Y);
+        let p = DVec3::new(0.3, 0.5, -0.2);
+        for beta in [0.0f64, 0.3, 1.0, 1.5, 2.0, 3.0] {
+            let n = DVec3::new(beta.sin(), beta.cos(), 0.0);
+            let got = weight(p, n, &[ground]);
+            let want = PI * (1.0 - beta.cos()) / 2.0;
+            eprintln!("half-space, β {beta}: {got:.5} vs {want:.5}");
+            assert!((got - want).abs() < 0.01 * PI, "β {beta}: {got} vs {want}");
+        }
+        // On the plane (the ground's own receivers) and below it: not shadowed.
+        assert_eq!(weight(DVec3::new(1.0, 0.0, 2.0), DVec3::Y, &[ground]), 0.0);
+        assert_eq!(weight(DVec3::new(1.0, -1.0, 2.0), -DVec3::Y, &[ground]), 0.0);
+        // A 1.2 × 0.8 plate at y = 0, its centre 0.5 below (above) a receiver facing it.
+        let plate =
+            BlockerPlane::rectangle(DVec3::new(0.1, 0.0, 0.0), DVec3::new(0.6, 0.0, 0.0), DVec3::new(0.0, 0.0, -0.4));
+        for (p, n) in [(DVec3::new(0.0, 0.5, 0.0), -DVec3::Y), (DVec3::new(0.0, -0.5, 0.0), DVec3::Y)] {
+            let got = weight(p, n, &[plate]);
+            let want = PI * super::super::thin::parallel_rectangle_form_factor(-0.5, 0.7, -0.4, 0.4, 0.5);
+            eprintln!("plate from {p:?}: {got:.5} vs {want:.5}");
+            assert!((got - want).abs() < 0.03 * want, "{p:?}: {got} vs {want}");
+        }
+        // Every patch centre marked iff its ray hits the plane (away from the boundary).
+        for (p, n, pl) in [
+            (DVec3::new(0.2, 0.4, 0.1), DVec3::new(0.6, 0.3, -0.2).normalize(), plate),
+            (DVec3::new(1.0, -0.3, 0.5), DVec3::new(-0.5, 0.2, 0.0).normalize(), plate),
+            (DVec3::new(0.0, 0.7, 0.0), DVec3::new(0.9, -0.1, 0.3).normalize(), ground),
+        ] {
+            let g = grid(n, 0.0, &o);
+            let mut mask = vec![vec![false; g.side]; g.side];
+            mark_planes(&mut mask, &g, p, &[pl]);
+            let mut checked = 0;
+            for (i, row) in mask.iter().enumerate() {
+                let th = g.lo + (i as f64 + 0.5) * g.delta;
+                for (j, &m) in row.iter().enumerate() {
+                    let ph = g.lo + (j as f64 + 0.5) * g.delta;
+                    let d = g.x * (th.sin() * ph.cos()) + g.y * th.cos() + g.z * (th.sin() * ph.sin());
+                    let near_edge = pl.edge_normals(p).is_some_and(|e| e.iter().any(|e| d.dot(*e).abs() < 1e-9));
+                    if !near_edge {
+                        assert_eq!(m, pl.blocks_direction(p, d), "{p:?} patch ({i}, {j})");
+                        checked += 1;
+                    }
+                }
+            }
+            assert!(checked > 1000);
+        }
     }
 
     /// Hard cases of the per-lobe occlusion: finite, in [0, F/H] (the whole lobe), and ordered.

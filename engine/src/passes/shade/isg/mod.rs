@@ -209,6 +209,7 @@ impl Technique for Isg {
                 Binding::buffer("EnvSgs", &p.env_sgs),
                 Binding::buffer("IsgTable", &lut.buffer),
                 Binding::buffer("BvhNodes", &inputs.blockers()?.bvh_nodes),
+                Binding::buffer("BlockerPlanes", &inputs.blockers()?.planes),
                 Binding::buffer("IsgParamsBuf", &p.params),
                 Binding::buffer("ThinTriangles", &thin.triangles),
                 Binding::buffer("ThinClusters", &thin.clusters),
