@@ -56,3 +56,45 @@ pub fn sheet_over_plane(env: LatLongMap, albedo: f32, half: f32, height: f32, n:
         camera: Camera { eye: Vec3::new(0.0, 2.2, 2.6), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },
     }
 }
+
+/// How [`ball_above_ground`] makes its ground a blocker.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GroundBlocker {
+    /// An explicit half-space y < 0 (the ground mesh itself is not marked).
+    HalfSpace,
+    /// The ground mesh marked as a plane blocker (its rectangle).
+    Rectangle,
+}
+
+/// A Lambertian ball (radius `radius` at `center`, albedo `albedo`, material 0, no blocker spheres:
+/// it is convex) above a huge ground (half-size 1000 at y = 0, material 1) that is a plane blocker, under
+/// `env`, seen from the side and slightly above. The closed-form scene of the plane tests: for a
+/// constant environment L a ball pixel with normal n sees only the upper hemisphere,
+/// ρL (1 + n_y)/2 (the ground's edge, 1000 away, hides less than 1e-3 of it).
+pub fn ball_above_ground(env: LatLongMap, albedo: f32, center: Vec3, radius: f32, blocker: GroundBlocker) -> Scene {
+    let mut blockers = SceneBlockers::default();
+    match blocker {
+        GroundBlocker::HalfSpace => {
+            blockers.planes = vec![engine::scene::blockers::BlockerPlane::half_space(glam::DVec3::ZERO, glam::DVec3::Y)]
+        }
+        GroundBlocker::Rectangle => blockers.plane_meshes = vec![false, true],
+    }
+    let eye = center + Vec3::new(0.0, 0.35, 3.2) * radius;
+    Scene {
+        meshes: vec![uv_sphere(32), ground_plane(1000.0, 1)],
+        materials: vec![Material::diffuse(Vec3::splat(albedo)), Material::diffuse(Vec3::splat(0.5))],
+        instances: vec![
+            Instance {
+                mesh: 0,
+                transform: Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)),
+                material: 0,
+            },
+            Instance { mesh: 1, transform: Mat4::IDENTITY, material: 1 },
+        ],
+        environment: env,
+        environment_intensity: 1.0,
+        lights: Vec::new(),
+        blockers,
+        camera: Camera { eye, target: center, fov_y_degrees: 45.0 },
+    }
+}

@@ -5,6 +5,8 @@
 //! - unoccluded: a convex diffuse sphere under a smooth sky, no blockers: equal to `none`;
 //! - one sphere over a plane under a constant environment: ρL (1 − h r²/d³) where the cap lies wholly
 //!   above the horizon (shadowing techniques only);
+//! - a ball above a plane blocker (half-space or rectangle) under a constant environment: ρL (1 + n_y)/2,
+//!   the upper hemisphere only (shadowing techniques only);
 //! - hard scenes: receivers inside spheres, hundreds of overlapping spheres, grazing views: finite;
 //! - bad options: unknown keys and out-of-range values of every key are errors naming the key.
 //!
@@ -119,6 +121,45 @@ fn one_sphere_over_a_plane_every_shadowing_technique() {
             100.0 * bound
         );
         assert!(e <= bound, "{}: one sphere {e} > {bound}", entry.name);
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
+#[test]
+fn ball_above_a_plane_every_shadowing_technique() {
+    use engine_tests::fixtures::{ball_above_ground, GroundBlocker};
+    let gpu = engine_tests::gpu();
+    let (albedo, l) = (0.7f32, 1.5f32);
+    for blocker in [GroundBlocker::HalfSpace, GroundBlocker::Rectangle] {
+        let env = LatLongMap::constant(64, 32, [l; 3]);
+        let scene = ball_above_ground(env, albedo, Vec3::new(0.0, 0.6, 0.0), 0.4, blocker);
+        for entry in TECHNIQUES {
+            let Some(bound) = entry.tolerances.one_plane else { continue };
+            let (hdr, g) = render(&gpu, &scene, entry);
+            assert_finite(&hdr, entry.name);
+            let mut want = vec![0f32; hdr.len()];
+            let mut mask = vec![false; g.len()];
+            for (i, px) in g.iter().enumerate() {
+                // Ball pixels: the upper hemisphere only.
+                let Some((_, n, 0)) = *px else { continue };
+                want[4 * i..4 * i + 3].fill(albedo * l * (1.0 + n.y as f32) / 2.0);
+                mask[i] = true;
+            }
+            let covered = mask.iter().filter(|&&m| m).count();
+            let facing_down = (0..g.len()).filter(|&i| mask[i] && want[4 * i] < 0.3 * albedo * l).count();
+            assert!(
+                covered > 300 && facing_down > 20,
+                "the ball and its underside are in view ({covered}, {facing_down})"
+            );
+            let e = relative_rmse(&hdr, &want, |i| mask[i]);
+            eprintln!(
+                "{} ({blocker:?}): ball above a plane against the closed form {:.3} % (bound {:.1} %)",
+                entry.name,
+                100.0 * e,
+                100.0 * bound
+            );
+            assert!(e <= bound, "{} ({blocker:?}): ball above a plane {e} > {bound}", entry.name);
+        }
     }
     gpu.shutdown().expect("clean teardown");
 }

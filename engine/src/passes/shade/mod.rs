@@ -44,6 +44,9 @@ pub struct Tolerances {
     /// One sphere over a Lambertian plane under a constant environment: relative RMSE against the
     /// closed form (the cap's cosine-weighted solid angle). `None`: the technique casts no shadows.
     pub one_sphere: Option<f64>,
+    /// A Lambertian ball above a plane blocker under a constant environment: relative RMSE against the
+    /// closed form ρL (1 + n_y)/2 (the upper hemisphere only). `None`: the technique casts no shadows.
+    pub one_plane: Option<f64>,
     /// Monte Carlo: the test accumulates this many samples per pixel before comparing (0: not MC).
     pub samples: u32,
 }

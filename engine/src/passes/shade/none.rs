@@ -13,7 +13,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     reads: Reads { lights: true, blockers: false, thin: false, geometry: false },
     // The irradiance grid is exact up to bilinear interpolation of a smooth function: the furnace is
     // flat to f32 rounding.
-    tolerances: Tolerances { furnace: 1e-3, unoccluded_vs_none: 0.0, one_sphere: None, samples: 0 },
+    tolerances: Tolerances { furnace: 1e-3, unoccluded_vs_none: 0.0, one_sphere: None, one_plane: None, samples: 0 },
     create: |gpu, _| Ok(Box::new(NoShadows::new(gpu)?)),
 };
 

@@ -31,6 +31,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
         furnace: 0.02,
         unoccluded_vs_none: 0.05,
         one_sphere: Some(0.05),
+        one_plane: Some(0.05),
         samples: 256,
     },
     create: |gpu, _| Ok(Box::new(Reference::new(gpu)?)),

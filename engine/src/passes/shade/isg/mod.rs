@@ -51,6 +51,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
         unoccluded_vs_none: 1e-5,
         // The patch grid's marking of one cap (tests/tests/isg.rs measures 0.25 % at 32 patches).
         one_sphere: Some(0.01),
+        one_plane: Some(0.05),
         samples: 0,
     },
     create: |gpu, o| Ok(Box::new(Isg::new(gpu, IsgOptions::from_options(o))?)),
