@@ -64,6 +64,9 @@ struct Args {
     /// Per-vertex shading for the techniques and the reference.
     #[arg(long)]
     per_vertex: bool,
+    /// Drop the scene's plane blockers (the ground as a blocker): the sphere set alone, as before planes.
+    #[arg(long)]
+    no_plane_blockers: bool,
     /// Keep converged references in this folder, keyed by everything that determines them (scene, env, size,
     /// material overrides incl. --brdf, spheres, visibility, fraction, max spp), and reuse them. The fraction rule converges
     /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
@@ -88,6 +91,10 @@ fn run() -> Result<()> {
     }
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
+    }
+    if args.no_plane_blockers {
+        scene.blockers.planes.clear();
+        scene.blockers.plane_meshes.clear();
     }
     let visibilities: Vec<(&str, Visibility)> = match args.visibility.as_str() {
         "spheres" => vec![("spheres", Visibility::Spheres)],
@@ -128,8 +135,9 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
         measured.push(m);
     }
     println!(
-        "scene {}{} {}x{}{}, gloss {:?}, ks {:?}, brdf {}",
+        "scene {}{}{} {}x{}{}, gloss {:?}, ks {:?}, brdf {}",
         args.scene,
+        if args.no_plane_blockers { " (no plane blockers)" } else { "" },
         args.spheres.map(|n| format!(" ({n} spheres)")).unwrap_or_default(),
         w,
         h,
@@ -168,7 +176,7 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
                 args.fraction,
                 args.max_spp,
                 args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
-            );
+            ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" };
             let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
             dir.join(format!("{}-{vis_name}-{hash:016x}.refimg", args.scene))
         });
