@@ -93,18 +93,7 @@ fn gpu_matches_the_f64_twin() {
     let (c, r) = (Vec3::new(0.2, 0.6, -0.1), 0.45f32);
     let scene = engine_tests::fixtures::sphere_over_plane(sky.clone(), 0.7, c, r);
     let lut = IsgLut::generate_default();
-    let (fitted, _) = engine::passes::shade::isg::fit_environment(&sky, 10, engine::passes::shade::isg::REFINE_ROUNDS);
-    // The GPU reads the lobes as f32.
-    let lobes: Vec<_> = fitted
-        .iter()
-        .map(|l| {
-            let mut l = *l;
-            l.axis = l.axis.map(|x| x as f32 as f64);
-            l.lambda = l.lambda as f32 as f64;
-            l.mu = l.mu.map(|x| x as f32 as f64);
-            l
-        })
-        .collect();
+    let lobes = engine_tests::isg_lobes_as_the_gpu_reads_them(&sky);
     let spheres = [Sphere::new(c.as_dvec3(), r as f64)];
     for (spec, evaluator) in [
         ("isg:diffuse=sg,threshold=0", Evaluator::Table),

@@ -151,17 +151,7 @@ fn twin_case(droop: bool) {
     let (scene, spheres) = sheet_and_sphere(sky.clone(), droop);
     let thin = thin_triangles(&scene);
     let lut = IsgLut::generate_default();
-    let (fitted, _) = engine::passes::shade::isg::fit_environment(&sky, 10, engine::passes::shade::isg::REFINE_ROUNDS);
-    let lobes: Vec<_> = fitted
-        .iter()
-        .map(|l| {
-            let mut l = *l;
-            l.axis = l.axis.map(|x| x as f32 as f64);
-            l.lambda = l.lambda as f32 as f64;
-            l.mu = l.mu.map(|x| x as f32 as f64);
-            l
-        })
-        .collect();
+    let lobes = engine_tests::isg_lobes_as_the_gpu_reads_them(&sky);
     let (hdr, g) = render_with_gbuffer(&gpu, &scene, settings("isg:diffuse=sg,threshold=0,patches=16"));
     gpu.shutdown().expect("clean teardown");
     assert_finite(&hdr, "isg");

@@ -90,17 +90,7 @@ fn gpu_matches_the_f64_twin_with_planes() {
     let planes = engine::resources::blockers::gather_planes(&scene).expect("planes");
     assert_eq!(planes.len(), 3);
     let lut = IsgLut::generate_default();
-    let (fitted, _) = engine::passes::shade::isg::fit_environment(&sky, 10, engine::passes::shade::isg::REFINE_ROUNDS);
-    let lobes: Vec<_> = fitted
-        .iter()
-        .map(|l| {
-            let mut l = *l;
-            l.axis = l.axis.map(|x| x as f32 as f64);
-            l.lambda = l.lambda as f32 as f64;
-            l.mu = l.mu.map(|x| x as f32 as f64);
-            l
-        })
-        .collect();
+    let lobes = engine_tests::isg_lobes_as_the_gpu_reads_them(&sky);
     // The twin sees the planes as the GPU does (f32 records).
     let planes: Vec<BlockerPlane> = planes
         .iter()
