@@ -147,6 +147,22 @@ pub fn assert_err_names(err: impl std::fmt::Display, path: &std::path::Path, wha
     assert!(s.to_lowercase().contains(&what.to_lowercase()), "error does not say '{what}': {s}");
 }
 
+/// The K = 10 SG fit of `env` that `isg` uses (its refinement rounds), rounded to f32 as the GPU reads it:
+/// the lobes of the f64 twin comparisons.
+pub fn isg_lobes_as_the_gpu_reads_them(env: &engine::math::envmap::LatLongMap) -> Vec<engine::math::sg::SgRgb> {
+    let (fitted, _) = engine::passes::shade::isg::fit_environment(env, 10, engine::passes::shade::isg::REFINE_ROUNDS);
+    fitted
+        .iter()
+        .map(|l| {
+            let mut l = *l;
+            l.axis = l.axis.map(|x| x as f32 as f64);
+            l.lambda = l.lambda as f32 as f64;
+            l.mu = l.mu.map(|x| x as f32 as f64);
+            l
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::{blessed, reference_mode_from, relative_rmse, ReferenceMode};
@@ -189,20 +205,4 @@ mod tests {
         c[4] = 100.0;
         assert_eq!(relative_rmse(&c, &b, |i| i == 0), 0.0);
     }
-}
-
-/// The K = 10 SG fit of `env` that `isg` uses (its refinement rounds), rounded to f32 as the GPU reads it:
-/// the lobes of the f64 twin comparisons.
-pub fn isg_lobes_as_the_gpu_reads_them(env: &engine::math::envmap::LatLongMap) -> Vec<engine::math::sg::SgRgb> {
-    let (fitted, _) = engine::passes::shade::isg::fit_environment(env, 10, engine::passes::shade::isg::REFINE_ROUNDS);
-    fitted
-        .iter()
-        .map(|l| {
-            let mut l = *l;
-            l.axis = l.axis.map(|x| x as f32 as f64);
-            l.lambda = l.lambda as f32 as f64;
-            l.mu = l.mu.map(|x| x as f32 as f64);
-            l
-        })
-        .collect()
 }
