@@ -5,11 +5,11 @@
 use anyhow::{Context, Result};
 use engine::converge::{self, ConvergeReport, HalfMeans};
 use engine::gpu::Gpu;
+use engine::math::envmap::LatLongMap;
 use engine::metrics;
 use engine::passes::shade::reference::{ReferenceOptions, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
-use engine::math::envmap::LatLongMap;
 use std::path::Path;
 
 /// Median (the upper middle value for an even count; NaN when empty).
@@ -147,7 +147,8 @@ impl ReferenceImage {
         let floats = |bytes: &[u8]| -> Vec<f32> {
             bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect()
         };
-        let rgb = |bytes: &[u8]| -> Vec<[f32; 3]> { floats(bytes).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
+        let rgb =
+            |bytes: &[u8]| -> Vec<[f32; 3]> { floats(bytes).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
         let hdr = floats(&body[..pixels * 16]);
         let ldr = body[pixels * 16..pixels * 20].to_vec();
         let mask = body[pixels * 20..pixels * 21].iter().map(|&m| m != 0).collect();
@@ -389,7 +390,8 @@ pub fn object_regions(gpu: &Gpu, scene: &Scene, width: u32, height: u32) -> Resu
     }
     let settings = RenderSettings { width, height, technique: "none".into(), ..Default::default() };
     let mut r = Renderer::new(gpu, &ids, settings).context("rendering the instance ids")?;
-    let position = r.render(gpu).map_err(anyhow::Error::from).and_then(|_| Ok(gpu.read_image_rgba32f(&r.gbuffer.position)?));
+    let position =
+        r.render(gpu).map_err(anyhow::Error::from).and_then(|_| Ok(gpu.read_image_rgba32f(&r.gbuffer.position)?));
     r.destroy(gpu);
     let position = position?;
     let id: Vec<Option<usize>> = position

@@ -10,8 +10,8 @@
 //! (renders, reference renders, error heat maps).
 
 use crate::measure::{self, Difference, Errors, Lighting, Measured, ReferenceImage, ReferenceRun, Region};
-use engine::converge::{combination_noise_sq, HalfMeans};
 use anyhow::{bail, Context, Result};
+use engine::converge::{combination_noise_sq, HalfMeans};
 use engine::gpu::Gpu;
 use engine::passes::shade::reference::Visibility;
 use engine::renderer::RenderSettings;
@@ -184,6 +184,17 @@ impl LinearityCheck {
     /// Upper + lower equals the whole within the noise (1.5× its estimate, or 1e-3 % for exact images).
     pub fn holds(&self) -> bool {
         self.rmse <= 1.5 * self.noise + 1e-3
+    }
+
+    /// The verdict in words: a noisy image (a reference) is linear within its noise or not; an exact render
+    /// (a technique, whose fit of the lighting need not be linear) is linear or off by its RMSE.
+    pub fn verdict(&self) -> String {
+        match (self.noise > 0.0, self.holds()) {
+            (true, true) => "linear within noise".into(),
+            (true, false) => "NOT linear within noise".into(),
+            (false, true) => "exact render: linear".into(),
+            (false, false) => format!("exact render: not linear in the lighting by {:.3} %", self.rmse),
+        }
     }
 }
 
@@ -521,7 +532,7 @@ fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet],
             c.image,
             c.rmse,
             c.noise,
-            if c.holds() { "linear within noise" } else { "NOT within noise" }
+            c.verdict()
         );
         c
     };
@@ -532,7 +543,13 @@ fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet],
         if let (Some(w), Some(u), Some(l)) = (w, u, l) {
             let noise = combination_noise_sq(&[(1.0, &u.halves), (1.0, &l.halves), (-1.0, &w.halves)], mask);
             let image = format!("reference/{}", measure::visibility_name(w.visibility));
-            out.push(check(image, &measure::rgb_items(&w.hdr), &measure::rgb_items(&u.hdr), &measure::rgb_items(&l.hdr), noise));
+            out.push(check(
+                image,
+                &measure::rgb_items(&w.hdr),
+                &measure::rgb_items(&u.hdr),
+                &measure::rgb_items(&l.hdr),
+                noise,
+            ));
         }
     }
     for (k, (shading, m)) in measured.iter().enumerate() {
@@ -951,17 +968,11 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
                  the noise of that combination (estimated from the halves; 0 for the exact technique renders, whose \
                  lighting fits need not be linear).\n"
             );
-            let _ = writeln!(s, "| image | (upper + lower − whole) % of whole | noise % | within noise |");
+            let _ = writeln!(s, "| image | (upper + lower − whole) % of whole | noise % | verdict |");
             let _ = writeln!(s, "|---|---|---|---|");
             for c in checks {
-                let _ = writeln!(
-                    s,
-                    "| `{}` | {:.3} | {:.3} | {} |",
-                    c.image,
-                    c.rmse,
-                    c.noise,
-                    if c.holds() { "yes" } else { "**no**" }
-                );
+                let verdict = if c.noise > 0.0 && !c.holds() { format!("**{}**", c.verdict()) } else { c.verdict() };
+                let _ = writeln!(s, "| `{}` | {:.3} | {:.3} | {verdict} |", c.image, c.rmse, c.noise);
             }
         }
         let region_rows: Vec<&RegionRow> = res.regions.iter().filter(|r| r.scene == *scene).collect();
@@ -976,6 +987,8 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
                  error; radiance share: the image's radiance in the region under this lighting over that under the \
                  whole.\n"
             );
+            // Long (images × regions × lightings × references): folded, the CSV has the same rows.
+            let _ = writeln!(s, "<details><summary>{} rows (also in regions.csv)</summary>\n", region_rows.len());
             let _ = writeln!(
                 s,
                 "| image | shading | vs | region | lighting | rel. RMSE % | of whole % | error share % | radiance share % |"
@@ -998,6 +1011,7 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
                     f2(r.radiance_share)
                 );
             }
+            let _ = writeln!(s, "\n</details>");
         }
         if let Some((_, thumbs)) = res.thumbnails.iter().find(|(l, _)| l == scene) {
             let _ = writeln!(s, "\n### Images\n");

@@ -68,8 +68,8 @@ fn tiny_sweep_runs_end_to_end() {
     // Same seeds: the difference of the references is far less noisy than their own noises added.
     let noise = num(proxy, "noise_tri_pct").expect("noise of the proxy difference");
     let refs = res.references.iter().find(|r| r.scene == "bunny").unwrap();
-    let independent =
-        100.0 * (refs.triangles.relative_stderr.powi(2) + refs.spheres.as_ref().unwrap().relative_stderr.powi(2)).sqrt();
+    let independent = 100.0
+        * (refs.triangles.relative_stderr.powi(2) + refs.spheres.as_ref().unwrap().relative_stderr.powi(2)).sqrt();
     assert!(noise > 0.0 && noise < 0.5 * independent, "proxy noise {noise} % vs independent {independent} %");
     let debiased = num(proxy, "rmse_tri_debiased_pct").unwrap();
     assert!((debiased - (p * p - noise * noise).max(0.0).sqrt()).abs() < 1e-4, "{proxy:?}");

@@ -196,11 +196,8 @@ impl HalfSplitter {
             let a: Vec<[f32; 3]> = a;
             return HalfMeans { b: a.clone(), a, samples_a: 0, samples_b: 0 };
         }
-        let b = mean
-            .iter()
-            .zip(&self.sum_a)
-            .map(|(m, s)| std::array::from_fn(|k| half(total(m, k) - s[k], nb)))
-            .collect();
+        let b =
+            mean.iter().zip(&self.sum_a).map(|(m, s)| std::array::from_fn(|k| half(total(m, k) - s[k], nb))).collect();
         HalfMeans { a, b, samples_a: na, samples_b: nb }
     }
 }
@@ -328,11 +325,8 @@ mod tests {
         };
         let t_as_f64: Vec<[f64; 3]> = t_mean.iter().map(|t| t.map(|v| v as f64)).collect();
         let measured_sq = sq(&s_mean, &t_as_f64);
-        let true_sq: f64 = truth_s
-            .iter()
-            .zip(&truth_t)
-            .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).powi(2)))
-            .sum();
+        let true_sq: f64 =
+            truth_s.iter().zip(&truth_t).flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).powi(2))).sum();
         let debiased = (measured_sq - estimate).max(0.0).sqrt();
         let over = (measured_sq - naive).max(0.0).sqrt();
         assert!((debiased / true_sq.sqrt() - 1.0).abs() < 0.02, "debiased {debiased} vs {}", true_sq.sqrt());
