@@ -1,13 +1,21 @@
 //! The speed-against-error report (`cargo xtask report`): a sweep of scenes × technique specs × shading rates,
 //! defined in one config file (tools/report/sweep.json), each measured for GPU time (median of ≥ 5 frames,
 //! timestamp queries) and error against the converged Monte Carlo reference; plus the error decomposition of
-//! SHEXP Fig. 7 on every scene with blocker spheres: proxy error (sphere-proxy reference against the triangle
-//! reference) and technique error (technique against the sphere-proxy reference).
+//! DESIGN.md §4 (SHEXP Fig. 7) on every scene with blocker spheres: proxy error (sphere-proxy reference against
+//! the triangle reference), technique error (technique against the sphere-proxy reference) and representation
+//! error (technique on the scene without blockers against the unoccluded reference); and the error split by
+//! region (each object's pixels, exactly from the G-buffer) and by lighting (the environment's upper and lower
+//! hemisphere rendered separately, with upper + lower = whole checked against the noise).
+//!
+//! Every "minus noise" figure removes the noise of the difference itself, estimated from the two independent
+//! half-sample means each reference keeps (`engine::converge::combination_noise_sq`): the references share their
+//! random numbers, so their difference is far less noisy than their own noises added.
 //!
 //! Writes into the output folder: `results.csv` (one row per measurement, columns in [`CSV_HEADER`]),
-//! `pareto.svg` (all scenes) and `pareto-<scene>.svg` (GPU ms against relative RMSE vs the triangle reference,
-//! one series per technique and shading rate), `README.md` (tables, decomposition, thumbnails) and `img/*.png`
-//! (renders, reference renders, error heat maps).
+//! `regions.csv` (error by region and lighting, [`REGIONS_HEADER`]), `pareto.svg` (all scenes) and
+//! `pareto-<scene>.svg` (GPU ms against relative RMSE vs the triangle reference, one series per technique and
+//! shading rate), `decomposition-<scene>.svg` (proxy, technique and representation error against GPU ms),
+//! `README.md` (tables, decomposition, thumbnails) and `img/*.png` (renders, reference renders, error heat maps).
 
 use crate::measure::{self, Difference, Errors, Lighting, Measured, ReferenceImage, ReferenceRun, Region};
 use anyhow::{bail, Context, Result};

@@ -54,7 +54,7 @@ fn run(
     even_frames: bool,
 ) -> Result<(ConvergeReport, ReferenceStats, HalfMeans)> {
     let per_vertex = renderer.settings.per_vertex;
-    let mut frames = 0;
+    let mut frames: u32 = 0;
     let mut split = HalfSplitter::default();
     let mut rule_held = false;
     loop {
@@ -65,7 +65,7 @@ fn run(
         let stats = r.stats(gpu, per_vertex)?;
         split.add_frame(&stats.mean, stats.samples);
         rule_held = rule_held || (stats.samples >= 2 && done(&stats));
-        let converged = rule_held && (!even_frames || frames % 2 == 0);
+        let converged = rule_held && (!even_frames || frames.is_multiple_of(2));
         let next = stats.samples as u64 + r.options().samples_per_frame as u64;
         if converged || next > max_samples.min(MAX_SAMPLES) as u64 {
             let report = ConvergeReport {
@@ -171,7 +171,7 @@ impl HalfSplitter {
             self.samples_a = 0;
             self.frame = 0;
         }
-        if self.frame % 2 == 0 {
+        if self.frame.is_multiple_of(2) {
             for ((a, cur), prev) in self.sum_a.iter_mut().zip(&now).zip(&self.previous) {
                 for k in 0..3 {
                     a[k] += cur[k] - prev[k];
