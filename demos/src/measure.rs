@@ -419,6 +419,8 @@ pub enum Lighting {
     /// Directions above the ground's horizon (world +Y up).
     Upper,
     Lower,
+    /// The scene's sphere lights alone (no environment).
+    Lights,
 }
 
 impl Lighting {
@@ -427,18 +429,24 @@ impl Lighting {
             Lighting::Whole => "whole",
             Lighting::Upper => "upper",
             Lighting::Lower => "lower",
+            Lighting::Lights => "lights",
         }
     }
 }
 
 /// A copy of the environment keeping only the texels of `lighting` (by the direction through each texel's
-/// centre: y > 0 is upper). Every texel is in exactly one of upper and lower, so, rendering being linear in the
+/// centre: y > 0 is upper; none for [`Lighting::Lights`]). Every texel is in exactly one of upper and lower, so, rendering being linear in the
 /// lighting (any linear filter of the map included), upper + lower = whole; with an even map height the split
 /// falls exactly on the horizon.
 pub fn hemisphere(env: &LatLongMap, lighting: Lighting) -> LatLongMap {
     let mut out = env.clone();
-    if lighting == Lighting::Whole {
-        return out;
+    match lighting {
+        Lighting::Whole => return out,
+        Lighting::Lights => {
+            out.texels.iter_mut().for_each(|t| *t = [0.0; 3]);
+            return out;
+        }
+        Lighting::Upper | Lighting::Lower => {}
     }
     for row in 0..env.height {
         let upper = env.texel_direction(0, row)[1] > 0.0;
@@ -449,6 +457,17 @@ pub fn hemisphere(env: &LatLongMap, lighting: Lighting) -> LatLongMap {
         }
     }
     out
+}
+
+/// `scene` under one part of its lighting: the environment's hemisphere without the sphere lights, or the lights
+/// without the environment (so that upper + lower + lights = whole).
+pub fn lit_by(scene: &Scene, lighting: Lighting) -> Scene {
+    let mut s = scene.clone();
+    s.environment = hemisphere(&scene.environment, lighting);
+    if matches!(lighting, Lighting::Upper | Lighting::Lower) {
+        s.lights.clear();
+    }
+    s
 }
 
 /// `scene` with no blockers at all (spheres, thin shells and every other kind; skins and bones kept): what is
@@ -481,6 +500,7 @@ mod tests {
         let env = LatLongMap { width: w, height: h, texels: (0..w * h).map(|i| [i as f32, 1.0, 0.5]).collect() };
         let (up, low) = (hemisphere(&env, Lighting::Upper), hemisphere(&env, Lighting::Lower));
         assert_eq!(hemisphere(&env, Lighting::Whole), env);
+        assert!(hemisphere(&env, Lighting::Lights).texels.iter().all(|t| *t == [0.0; 3]));
         for (i, t) in env.texels.iter().enumerate() {
             let (u, l) = (up.texels[i], low.texels[i]);
             assert!((u == [0.0; 3]) != (l == [0.0; 3]) || *t == [0.0; 3], "texel {i} in both or neither");

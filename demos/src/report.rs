@@ -48,8 +48,8 @@ pub struct Sweep {
     #[serde(default)]
     pub decomposition_scene: Option<String>,
     /// Also render every image under the environment's upper and lower hemisphere only (above and below the
-    /// ground's horizon, world +Y up), for the error by lighting (default: true; costs two more references per
-    /// visibility and two more frames per technique).
+    /// ground's horizon, world +Y up; without the sphere lights, which are then a third part), for the error by
+    /// lighting (default: true; costs two (three) more references per visibility and frames per technique).
     #[serde(default = "yes")]
     pub split_lighting: bool,
     pub scenes: Vec<SceneSpec>,
@@ -466,9 +466,14 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
             sph,
         }];
         if sweep.split_lighting {
-            for lighting in [Lighting::Upper, Lighting::Lower] {
-                let mut lit = scene.clone();
-                lit.environment = measure::hemisphere(&scene.environment, lighting);
+            // The environment's hemispheres without the sphere lights, and the lights alone (when there are
+            // any), so that the parts add up to the whole.
+            let mut parts = vec![Lighting::Upper, Lighting::Lower];
+            if !scene.lights.is_empty() {
+                parts.push(Lighting::Lights);
+            }
+            for lighting in parts {
+                let lit = measure::lit_by(&scene, lighting);
                 let mut techniques = Vec::new();
                 for (shading, m) in &measured {
                     let img = measure::measure_technique(gpu, &lit, settings(shading, &m.spec)?, 1)?;
@@ -477,7 +482,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 // Sample for sample with the whole-lighting references (same seed, frames and count).
                 let at = |r: &ReferenceImage| -> Result<ReferenceImage> {
                     eprintln!(
-                        "{label}: the {} reference under the {} hemisphere ({} spp)...",
+                        "{label}: the {} reference, lighting: {} ({} spp)...",
                         measure::visibility_name(r.visibility),
                         lighting.name(),
                         r.report.samples
@@ -516,15 +521,21 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     Ok(results)
 }
 
-/// Upper + lower − whole for every reference and technique of a scene ([`LinearityCheck`]), printed as well.
+/// Upper + lower (+ lights) − whole for every reference and technique of a scene ([`LinearityCheck`]), printed
+/// as well.
 fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet], out: &mut Vec<LinearityCheck>) {
-    let [whole, upper, lower] = sets else { return };
+    let Some((whole, parts)) = sets.split_first() else { return };
+    if parts.is_empty() {
+        return;
+    }
+    let names: Vec<&str> = parts.iter().map(|p| p.lighting.name()).collect();
+    let sum_name = names.join(" + ");
     let mask = &whole.tri.mask;
-    let check = |image: String, w: &[[f32; 3]], u: &[[f32; 3]], l: &[[f32; 3]], noise_sq: f64| {
+    let check = |image: String, w: &[[f32; 3]], parts: &[&[[f32; 3]]], noise_sq: f64| {
         let (mut err, mut norm) = (0.0, 0.0);
         for (i, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
             for k in 0..3 {
-                let d = u[i][k] as f64 + l[i][k] as f64 - w[i][k] as f64;
+                let d = parts.iter().map(|p| p[i][k] as f64).sum::<f64>() - w[i][k] as f64;
                 err += d * d;
                 norm += (w[i][k] as f64).powi(2);
             }
@@ -536,7 +547,7 @@ fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet],
             noise: 100.0 * (noise_sq / norm).sqrt(),
         };
         eprintln!(
-            "{label}: {}: upper + lower − whole = {:.3} % of whole, noise estimate {:.3} %: {}",
+            "{label}: {}: {sum_name} − whole = {:.3} % of whole, noise estimate {:.3} %: {}",
             c.image,
             c.rmse,
             c.noise,
@@ -547,22 +558,23 @@ fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet],
     fn refs(s: &LightingSet) -> [Option<&ReferenceImage>; 2] {
         [Some(&s.tri), s.sph.as_ref()]
     }
-    for ((w, u), l) in refs(whole).into_iter().zip(refs(upper)).zip(refs(lower)) {
-        if let (Some(w), Some(u), Some(l)) = (w, u, l) {
-            let noise = combination_noise_sq(&[(1.0, &u.halves), (1.0, &l.halves), (-1.0, &w.halves)], mask);
-            let image = format!("reference/{}", measure::visibility_name(w.visibility));
-            out.push(check(
-                image,
-                &measure::rgb_items(&w.hdr),
-                &measure::rgb_items(&u.hdr),
-                &measure::rgb_items(&l.hdr),
-                noise,
-            ));
-        }
+    for kind in 0..2 {
+        let Some(w) = refs(whole)[kind] else { continue };
+        let Some(p) = parts.iter().map(|p| refs(p)[kind]).collect::<Option<Vec<&ReferenceImage>>>() else {
+            continue;
+        };
+        let mut terms: Vec<(f64, &HalfMeans)> = p.iter().map(|r| (1.0, &r.halves)).collect();
+        terms.push((-1.0, &w.halves));
+        let noise = combination_noise_sq(&terms, mask);
+        let rgb: Vec<Vec<[f32; 3]>> = p.iter().map(|r| measure::rgb_items(&r.hdr)).collect();
+        let rgb: Vec<&[[f32; 3]]> = rgb.iter().map(Vec::as_slice).collect();
+        let image = format!("reference/{}", measure::visibility_name(w.visibility));
+        out.push(check(image, &measure::rgb_items(&w.hdr), &rgb, noise));
     }
     for (k, (shading, m)) in measured.iter().enumerate() {
         let image = format!("{} ({shading})", m.spec);
-        out.push(check(image, &whole.techniques[k], &upper.techniques[k], &lower.techniques[k], 0.0));
+        let rgb: Vec<&[[f32; 3]]> = parts.iter().map(|p| p.techniques[k].as_slice()).collect();
+        out.push(check(image, &whole.techniques[k], &rgb, 0.0));
     }
 }
 
@@ -971,12 +983,13 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
             let _ = writeln!(
                 s,
                 "Each image rendered again under the environment above the ground's horizon only (world +Y up; texels \
-                 split by their centre direction) and below it only; rendering is linear in the lighting, so the two \
-                 add up to the whole. The check: relative RMSE of upper + lower − whole against the whole, beside \
+                 split by their centre direction) and below it only (and, in scenes with sphere lights, the lights \
+                 alone, which the hemispheres leave out); rendering is linear in the lighting, so the parts add up \
+                 to the whole. The check: relative RMSE of the sum of the parts − whole against the whole, beside \
                  the noise of that combination (estimated from the halves; 0 for the exact technique renders, whose \
                  lighting fits need not be linear).\n"
             );
-            let _ = writeln!(s, "| image | (upper + lower − whole) % of whole | noise % | verdict |");
+            let _ = writeln!(s, "| image | (sum of the parts − whole) % of whole | noise % | verdict |");
             let _ = writeln!(s, "|---|---|---|---|");
             for c in checks {
                 let verdict = if c.noise > 0.0 && !c.holds() { format!("**{}**", c.verdict()) } else { c.verdict() };
