@@ -1,8 +1,11 @@
 //! `cargo xtask report --tiny`: the tiny sweep of tools/report/sweep.json runs end to end on lavapipe and writes a
 //! results.csv with every scene × shading × technique plus the reference rows (proxy error on the bunny), Pareto
-//! plots that are well-formed SVG, and a README whose tables and thumbnails point at files that exist.
+//! plots that are well-formed SVG, and a README whose tables and thumbnails point at files that exist; the error
+//! by region and lighting (regions.csv) partitions the covered pixels, upper + lower = whole holds for the
+//! references within their noise, and the proxy error's noise is that of the difference of references that share
+//! their random numbers (well below their own noises added).
 
-use demos::report::{self, CSV_HEADER};
+use demos::report::{self, CSV_HEADER, REGIONS_HEADER};
 
 /// Split a CSV line, honouring double quotes.
 fn cells(line: &str) -> Vec<String> {
@@ -62,6 +65,62 @@ fn tiny_sweep_runs_end_to_end() {
     let p = num(proxy, "rmse_tri_pct").expect("proxy error");
     assert!(p > 0.0 && p < 100.0, "proxy error {p}");
     assert_eq!(rows.len(), res.rows.len());
+    // Same seeds: the difference of the references is far less noisy than their own noises added.
+    let noise = num(proxy, "noise_tri_pct").expect("noise of the proxy difference");
+    let refs = res.references.iter().find(|r| r.scene == "bunny").unwrap();
+    let independent = 100.0
+        * (refs.triangles.relative_stderr.powi(2) + refs.spheres.as_ref().unwrap().relative_stderr.powi(2)).sqrt();
+    assert!(noise > 0.0 && noise < 0.5 * independent, "proxy noise {noise} % vs independent {independent} %");
+    let debiased = num(proxy, "rmse_tri_debiased_pct").unwrap();
+    assert!((debiased - (p * p - noise * noise).max(0.0).sqrt()).abs() < 1e-4, "{proxy:?}");
+    // Representation error on the scenes with spheres.
+    for r in rows.iter().filter(|r| r[0] == "bunny" && !r[2].starts_with("reference")) {
+        let e = num(r, "rmse_repr_pct").expect("representation error");
+        assert!(e.is_finite() && e >= 0.0, "{r:?}");
+    }
+
+    let regions = std::fs::read_to_string(out.join("regions.csv")).expect("regions.csv");
+    let mut lines = regions.lines();
+    assert_eq!(lines.next(), Some(REGIONS_HEADER));
+    let region_rows: Vec<Vec<String>> = lines.map(cells).collect();
+    assert_eq!(region_rows.len(), res.regions.len());
+    let col = |name: &str| REGIONS_HEADER.split(',').position(|c| c == name).unwrap();
+    let f = |r: &Vec<String>, name: &str| -> f64 { r[col(name)].parse().unwrap_or(f64::NAN) };
+    // The bunny scene's objects, found in the G-buffer, partition its covered pixels: their error shares add up.
+    for image in ["none", "reference/spheres"] {
+        for lighting in ["whole", "upper", "lower"] {
+            let of = |region: &str| {
+                region_rows
+                    .iter()
+                    .find(|r| {
+                        r[0] == "bunny"
+                            && r[col("image")] == image
+                            && r[col("region")] == region
+                            && r[col("lighting")] == lighting
+                            && r[col("against")] == "triangles"
+                    })
+                    .unwrap_or_else(|| panic!("no regions.csv row for {image} {region} {lighting}"))
+            };
+            let (all, bunny, ground) = (of("all"), of("bunny"), of("ground"));
+            assert_eq!(f(all, "error_share_pct"), 100.0);
+            let sum = f(bunny, "error_share_pct") + f(ground, "error_share_pct");
+            // The ground under the lower hemisphere only is black in both images: 0/0 shares.
+            if f(all, "rmse_pct") > 0.0 {
+                assert!((sum - 100.0).abs() < 1e-6, "{image} {lighting}: shares add to {sum}");
+            }
+            if lighting == "whole" {
+                assert_eq!(f(all, "rmse_pct"), f(all, "of_whole_pct"));
+            }
+        }
+    }
+    // Upper + lower = whole for the references, within their noise (rendering is linear in the lighting).
+    for c in res.linearity.iter().filter(|c| c.image.starts_with("reference")) {
+        assert!(c.holds() && c.noise > 0.0, "{c:?}");
+    }
+    assert!(res.linearity.iter().any(|c| c.scene == "bunny" && c.image == "reference/spheres"));
+    let svg = std::fs::read_to_string(out.join("decomposition-bunny.svg")).expect("decomposition plot");
+    roxmltree::Document::parse(&svg).expect("decomposition-bunny.svg");
+    assert!(svg.contains("proxy (spheres vs triangles)") && svg.contains("representation"), "decomposition series");
 
     for svg in ["pareto.svg", "pareto-bunny.svg", "pareto-arm.svg"] {
         let text = std::fs::read_to_string(out.join(svg)).unwrap_or_else(|e| panic!("{svg}: {e}"));
@@ -69,7 +128,9 @@ fn tiny_sweep_runs_end_to_end() {
         assert!(text.contains(">none (pixel)<") && text.contains(">isg (pixel)<"), "{svg}: series per technique");
     }
     let readme = std::fs::read_to_string(out.join("README.md")).expect("README.md");
-    assert!(readme.contains("Error decomposition"), "decomposition section");
+    for section in ["Error decomposition", "Error by region and lighting", "Upper + lower hemisphere = whole"] {
+        assert!(readme.contains(section), "README section {section}");
+    }
     let mut images = 0;
     for part in readme.split("](").skip(1) {
         let target = &part[..part.find(')').unwrap()];
