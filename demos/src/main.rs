@@ -145,8 +145,7 @@ fn check_output_dir(dir: &Path, what: &str) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("{what} {}: cannot create the folder", dir.display()))?;
     anyhow::ensure!(dir.is_dir(), "{what} {}: not a folder", dir.display());
     let probe = dir.join(format!(".demo-write-check-{}", std::process::id()));
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("{what} {}: cannot write in the folder", dir.display()))?;
+    std::fs::write(&probe, b"").with_context(|| format!("{what} {}: cannot write in the folder", dir.display()))?;
     std::fs::remove_file(&probe).with_context(|| format!("removing {}", probe.display()))?;
     Ok(())
 }
@@ -276,10 +275,7 @@ fn drive(
 ) -> anyhow::Result<()> {
     let schedule = args.spp.map(spp_schedule);
     if let (Some(s), Some(r)) = (&schedule, engine::converge::reference_mut(renderer)) {
-        r.set_options(engine::passes::shade::reference::ReferenceOptions {
-            samples_per_frame: s[0],
-            ..r.options()
-        })?;
+        r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: s[0], ..r.options() })?;
     }
     if animation.is_some() && args.technique.starts_with("reference") {
         eprintln!(
