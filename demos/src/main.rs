@@ -13,7 +13,7 @@ const MAX_SPP: u32 = 1 << 16;
 const SPP_PER_FRAME: u32 = 64;
 /// Largest `--exposure`: beyond it a tone-mapped image is white wherever anything is lit.
 const MAX_EXPOSURE: f32 = 1e6;
-/// A long run reports progress on stderr this often (seconds).
+/// A long run reports progress on stderr this often (seconds; `DEMO_PROGRESS_S` overrides, 0: every frame).
 const PROGRESS_EVERY_S: f64 = 2.0;
 
 #[derive(Parser, Debug)]
@@ -41,7 +41,7 @@ struct Args {
     #[arg(long)]
     env: Option<PathBuf>,
     /// Exposure multiplier before tone mapping (a number in (0, 1e6]).
-    #[arg(long, default_value_t = 1.0, value_parser = parse_exposure)]
+    #[arg(long, default_value_t = 1.0, value_parser = parse_exposure, allow_negative_numbers = true)]
     exposure: f32,
     /// Frames to render, at least 1 (times are reported as the median over them) [default: 5; with --spp:
     /// as many as the samples need].
@@ -54,7 +54,8 @@ struct Args {
     #[arg(long, default_value = "default", value_parser = parse_name)]
     name: String,
     /// With --technique reference only: accumulate exactly N samples per pixel (N in 1..=65536; at most 64 per
-    /// frame, so ⌈N/64⌉ frames), print progress during long runs and the reference's relative standard error.
+    /// frame, so ⌈N/64⌉ frames) and print the reference's relative standard error. Runs longer than 2 s print
+    /// their progress on stderr every 2 s (DEMO_PROGRESS_S sets the interval).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
     spp: Option<u32>,
     /// Use the Vulkan adapter whose name contains this text (default: $ENGINE_DEVICE if set, else the first
@@ -420,18 +421,24 @@ fn render_frames(
 /// interval with the frames (and the reference's samples) done and the time left at the rate so far.
 struct Progress {
     frames: u32,
+    every: f64,
     start: std::time::Instant,
     last: f64,
 }
 
 impl Progress {
     fn new(frames: u32) -> Self {
-        Self { frames, start: std::time::Instant::now(), last: 0.0 }
+        let every = std::env::var("DEMO_PROGRESS_S")
+            .ok()
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .filter(|s| s.is_finite() && *s >= 0.0)
+            .unwrap_or(PROGRESS_EVERY_S);
+        Self { frames, every, start: std::time::Instant::now(), last: 0.0 }
     }
 
     fn frame_done(&mut self, done: u32, samples: Option<(u32, u32)>) {
         let t = self.start.elapsed().as_secs_f64();
-        if done == self.frames || t - self.last < PROGRESS_EVERY_S {
+        if done == self.frames || t - self.last < self.every {
             return;
         }
         self.last = t;
