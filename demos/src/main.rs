@@ -142,13 +142,21 @@ fn spp_schedule(n: u32) -> Vec<u32> {
     (0..frames).map(|f| n / frames + u32::from(f < n % frames)).collect()
 }
 
-/// Create `dir` and check that a file can be written in it, before any GPU work: an unusable output folder is
-/// found in milliseconds, not after every frame has rendered.
+/// Check, before any GPU work, that `dir` is or can become a folder the demo writes in: an unusable output folder
+/// is found in milliseconds, not after every frame has rendered. Nothing is created: the probe file goes into
+/// `dir`, or into its nearest existing ancestor when `dir` does not exist yet (the writes create it).
 fn check_output_dir(dir: &Path, what: &str) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{what} {}: cannot create the folder", dir.display()))?;
-    anyhow::ensure!(dir.is_dir(), "{what} {}: not a folder", dir.display());
-    let probe = dir.join(format!(".demo-write-check-{}", std::process::id()));
-    std::fs::write(&probe, b"").with_context(|| format!("{what} {}: cannot write in the folder", dir.display()))?;
+    let mut existing = dir;
+    while !existing.exists() {
+        existing = match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+    }
+    anyhow::ensure!(existing.is_dir(), "{what} {}: {} is not a folder", dir.display(), existing.display());
+    let probe = existing.join(format!(".demo-write-check-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("{what} {}: cannot write in {}", dir.display(), existing.display()))?;
     std::fs::remove_file(&probe).with_context(|| format!("removing {}", probe.display()))?;
     Ok(())
 }
@@ -370,6 +378,7 @@ fn render_frames(
         progress.frame_done(f + 1, samples.filter(|_| schedule.is_some()).map(|n| (n, total_spp)));
     }
     let after_last = gpu.memory_stats();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let (w, h) = (renderer.settings.width, renderer.settings.height);
     let hdr = renderer.read_radiance(gpu)?;
     let bad = hdr.iter().filter(|v| !v.is_finite()).count();
