@@ -87,6 +87,7 @@ fn host_skinning_twin_matches_its_formula() {
     // skin_matrix: weights summing to 0 give the identity; out-of-range bones count as the identity.
     let bones = [Mat4::from_translation(Vec3::X), Mat4::from_rotation_z(1.0)];
     assert_eq!(skin_matrix([0, 1, 0, 0], [0.0; 4], &bones), Mat4::IDENTITY);
+    assert_eq!(skin_matrix([0, 1, 0, 0], [f32::NAN, 0.0, 0.0, 0.0], &bones), Mat4::IDENTITY);
     assert_eq!(skin_matrix([5, 0, 0, 0], [1.0, 0.0, 0.0, 0.0], &bones), Mat4::IDENTITY);
     let m = skin_matrix([0, 1, 0, 0], [0.25, 0.75, 0.0, 0.0], &bones);
     let want = bones[0] * 0.25 + bones[1] * 0.75;

@@ -328,7 +328,8 @@ impl PosedTriangles {
 /// (tests/tests/reference_skin.rs compares them with the skin pass's world vertices).
 pub fn skin_matrix(joints: [u32; 4], weights: [f32; 4], bones: &[Mat4]) -> Mat4 {
     let total = weights[0] + weights[1] + weights[2] + weights[3];
-    if !(total > 0.0) {
+    // `!(total > 0)` of the GLSL, NaN included.
+    if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Mat4::IDENTITY;
     }
     let mut m = Mat4::ZERO;
