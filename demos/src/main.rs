@@ -235,14 +235,19 @@ fn run() -> anyhow::Result<()> {
     // `--device` wins; without it, GpuDesc::default() reads ENGINE_DEVICE (an empty value counts as unset).
     let defaults = GpuDesc::default();
     let device_name = args.device.clone().or(defaults.device_name.clone().filter(|d| !d.is_empty()));
-    let gpu = Gpu::new(&GpuDesc { device_name, surface_extensions, ..defaults })?;
+    let from_env = args.device.is_none().then(|| device_name.clone()).flatten();
+    let gpu = Gpu::new(&GpuDesc { device_name, surface_extensions, ..defaults }).map_err(|e| match &from_env {
+        // The engine's message speaks of --device; say where the text came from.
+        Some(name) => anyhow::Error::new(e).context(format!("ENGINE_DEVICE={name}")),
+        None => e.into(),
+    })?;
     // From here on every error path releases what it made before returning, so the error prints alone.
     let result = render_on(&gpu, &mut args, &scene, entry, animation, event_loop);
     let teardown = gpu.shutdown();
     match (result, teardown) {
         (Ok(()), t) => t.map_err(Into::into),
         // A teardown problem after an error is a second fault; name it after the first, in one message.
-        (Err(e), Err(t)) => Err(e.context(format!("(and the teardown after it failed: {t})"))),
+        (Err(e), Err(t)) => Err(anyhow::anyhow!("{e:#}\n(and the teardown after it failed: {t})")),
         (Err(e), Ok(())) => Err(e),
     }
 }

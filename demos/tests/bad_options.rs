@@ -160,7 +160,7 @@ fn engine_device_is_honoured_and_device_wins() {
         c.arg("--out").arg(&out).env("ENGINE_DEVICE", NO_SUCH);
         c
     });
-    assert_refused(&o, &stderr, "ENGINE_DEVICE", &[NO_SUCH]);
+    assert_refused(&o, &stderr, "ENGINE_DEVICE", &[&format!("ENGINE_DEVICE={NO_SUCH}")]);
     // The adapter this machine has, asked for by name: the argument wins over the variable.
     let gpu = engine::gpu::Gpu::new(&engine::gpu::GpuDesc { verbose: false, ..Default::default() }).expect("a device");
     let name = gpu.info.name.clone();
