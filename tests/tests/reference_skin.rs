@@ -4,7 +4,8 @@
 //! black blob at the elbow where the bent arm's surface lies inside the straight one.
 //!
 //! - The triangles the reference traces equal the skin pass's world vertices (read back) within 1e-4, at the
-//!   scene's initial pose and after `Renderer::set_bones` (the BVH is rebuilt when the pose changes).
+//!   scene's initial pose and after `Renderer::set_bones` and `set_instance_transform` (the BVH is rebuilt when
+//!   the pose changes).
 //! - The reference image follows the pose: re-posing to A after B gives the same bits as rendering A fresh
 //!   (accumulation restarts with the pose), and A's image differs from B's where the shadow moved.
 
@@ -58,7 +59,8 @@ fn reference_triangles_are_the_skin_pass_world_vertices() {
         .flat_map(|inst| scene.meshes[inst.mesh].positions.iter().map(|p| inst.transform.transform_point3(*p)))
         .collect();
     let mut r = reference_renderer(&gpu, &scene);
-    // The scene's initial pose (bent 60°), then straight, half bent and bent the other way.
+    // The scene's initial pose (bent 60°), then straight, half bent, and bent the other way with every instance
+    // moved.
     let poses: [Option<Vec<Mat4>>; 4] = [
         None,
         Some(demos::scenes::arm::bones(0.0)),
@@ -68,6 +70,13 @@ fn reference_triangles_are_the_skin_pass_world_vertices() {
     for (i, pose) in poses.iter().enumerate() {
         if let Some(b) = pose {
             r.set_bones(b).expect("bones");
+        }
+        if i == 3 {
+            // An instance transform moves the triangles too (the turntable of `bunny --animate`).
+            let lift = Mat4::from_translation(Vec3::new(0.1, 0.4, -0.2)) * Mat4::from_rotation_y(0.3);
+            for (k, inst) in scene.instances.iter().enumerate() {
+                r.set_instance_transform(k, lift * inst.transform).expect("transform");
+            }
         }
         r.render(&gpu).expect("frame");
         let (worst, moved) = compare_with_skin_pass(&gpu, &mut r, &rest);
