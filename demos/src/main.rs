@@ -49,7 +49,7 @@ struct Args {
     /// as many as the samples need].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "spp")]
     frames: Option<u32>,
-    /// Output folder (created, and checked writable, before anything renders).
+    /// Output folder (checked writable before anything renders, created when the images are written).
     #[arg(long, default_value = "out")]
     out: PathBuf,
     /// Output file stem (<out>/<name>.exr and .png): not empty, no path separator, not `.` or `..`.
@@ -60,8 +60,8 @@ struct Args {
     /// their progress on stderr every 2 s (DEMO_PROGRESS_S sets the interval).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
     spp: Option<u32>,
-    /// Use the Vulkan adapter whose name contains this text (default: $ENGINE_DEVICE if set, else the first
-    /// discrete GPU, integrated GPU or CPU adapter).
+    /// Use the Vulkan adapter whose name contains this text (default: $ENGINE_DEVICE if set, else automatic:
+    /// discrete > integrated > virtual > CPU).
     #[arg(long)]
     device: Option<String>,
     /// Print device memory after the first frame and the allocations the later (steady) frames made.
