@@ -4,7 +4,19 @@ use anyhow::Context;
 use clap::Parser;
 use engine::gpu::{Gpu, GpuDesc};
 use engine::renderer::{RenderSettings, Renderer};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// The most samples per pixel `--spp` accepts: 1024 frames of [`SPP_PER_FRAME`]. Measured on lavapipe (2 cores), a
+/// 64-sample bunny frame at 64×48 takes 0.54 s, so the maximum costs about 9 minutes there, with progress on
+/// stderr; 4294967295 would have been 67 million frames. (The reference's own limit, `reference::MAX_SAMPLES`, is
+/// 2^24.)
+const MAX_SPP: u32 = 1 << 16;
+/// The most samples one reference frame adds (one submission; keeps each frame's GPU time bounded).
+const SPP_PER_FRAME: u32 = 64;
+/// Largest `--exposure`: beyond it a tone-mapped image is white wherever anything is lit.
+const MAX_EXPOSURE: f32 = 1e6;
+/// A long run reports progress on stderr this often (seconds; `DEMO_PROGRESS_S` overrides, 0: every frame).
+const PROGRESS_EVERY_S: f64 = 2.0;
 
 #[derive(Parser, Debug)]
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
@@ -26,43 +38,46 @@ struct Args {
     /// Image height in pixels (default: 480 on a GPU, 240 on a CPU adapter).
     #[arg(long)]
     height: Option<u32>,
-    /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (the furnace
-    /// refuses it: its constant environment is what it tests).
+    /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (every scene
+    /// loads it, except the furnace, which refuses it: its constant environment is what it tests).
     #[arg(long)]
     env: Option<PathBuf>,
-    /// Exposure multiplier before tone mapping.
-    #[arg(long, default_value_t = 1.0)]
+    /// Exposure multiplier before tone mapping (a number in (0, 1e6]).
+    #[arg(long, default_value_t = 1.0, value_parser = parse_exposure, allow_negative_numbers = true)]
     exposure: f32,
-    /// Frames to render (times are reported as the median over them; --spp sets it for the reference).
-    #[arg(long, default_value_t = 5)]
-    frames: u32,
-    /// Output folder.
+    /// Frames to render, at least 1 (times are reported as the median over them) [default: 5; with --spp:
+    /// as many as the samples need].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "spp")]
+    frames: Option<u32>,
+    /// Output folder (checked writable before anything renders, created when the images are written).
     #[arg(long, default_value = "out")]
     out: PathBuf,
-    /// Output file stem (<out>/<name>.exr and .png).
-    #[arg(long, default_value = "default")]
+    /// Output file stem (<out>/<name>.exr and .png): not empty, no path separator, not `.` or `..`.
+    #[arg(long, default_value = "default", value_parser = parse_name)]
     name: String,
-    /// With --technique reference: accumulate N samples per pixel (at most 64 per frame; sets
-    /// --frames) and print the reference's relative standard error (other techniques: ignored, with a warning).
-    #[arg(long)]
+    /// With --technique reference only: accumulate exactly N samples per pixel (N in 1..=65536; at most 64 per
+    /// frame, so ⌈N/64⌉ frames) and print the reference's relative standard error. Runs longer than 2 s print
+    /// their progress on stderr every 2 s (DEMO_PROGRESS_S sets the interval).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
     spp: Option<u32>,
-    /// Use the Vulkan adapter whose name contains this text.
+    /// Use the Vulkan adapter whose name contains this text (default: $ENGINE_DEVICE if set, else automatic:
+    /// discrete > integrated > virtual > CPU).
     #[arg(long)]
     device: Option<String>,
     /// Print device memory after the first frame and the allocations the later (steady) frames made.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["window", "capture"])]
     memory: bool,
     /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
     /// T: technique, V: per-vertex/per-pixel, +/-: exposure, R: reset, Esc: quit).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["frames", "spp", "capture", "export"])]
     window: bool,
     /// With --window: quit after this many presented frames (0: when the window closes), printing
     /// `presented frame N` for each.
-    #[arg(long, default_value_t = 0)]
-    exit_after: u64,
-    /// Performance capture: render N frames and write every frame's per-pass GPU times to
+    #[arg(long, requires = "window")]
+    exit_after: Option<u64>,
+    /// Performance capture: render N ≥ 1 frames and write every frame's per-pass GPU times to
     /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), conflicts_with_all = ["frames", "spp"])]
     capture: Option<u32>,
     #[arg(long, help = demos::scenes::animate_help())]
     animate: bool,
@@ -76,6 +91,25 @@ struct Args {
     export: Option<PathBuf>,
 }
 
+/// `--exposure`: finite and positive (NaN, infinities, zero and negative values give a black or undefined image).
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    let x: f32 = s.trim().parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if x.is_finite() && x > 0.0 && x <= MAX_EXPOSURE {
+        Ok(x)
+    } else {
+        Err(format!("{x} is not in (0, {MAX_EXPOSURE:e}]: the exposure multiplies the radiance before tone mapping"))
+    }
+}
+
+/// `--name`: a file stem inside `--out`, never a path that leaves it or names the folder itself.
+fn parse_name(s: &str) -> Result<String, String> {
+    if s.is_empty() || s == "." || s == ".." || s.contains(['/', '\\', '\0']) {
+        Err(format!("'{s}' is not a file name (it must be non-empty, without '/' or '\\', and not '.' or '..')"))
+    } else {
+        Ok(s.to_string())
+    }
+}
+
 fn main() {
     demos::exit_on_error(run());
 }
@@ -85,7 +119,8 @@ fn main() {
 fn parse_args() -> Args {
     use clap::{CommandFactory, FromArgMatches};
     let technique_help = format!(
-        "Shading technique NAME[:key=value,...] (default {}). Registered techniques and their options:\n{}",
+        "Shading technique NAME[:key=value,...] (default {}; each key at most once). Registered techniques and \
+         their options:\n{}",
         engine::renderer::DEFAULT_TECHNIQUE,
         engine::passes::shade::techniques_help()
     );
@@ -100,14 +135,94 @@ fn parse_args() -> Args {
     Args::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
 }
 
+/// Samples per frame for `--spp n`: ⌈n / 64⌉ frames, spread evenly (counts differ by at most one and sum to
+/// exactly `n`; the reference merges batches of any size, integrate.glsl's Chan et al. update).
+fn spp_schedule(n: u32) -> Vec<u32> {
+    let frames = n.div_ceil(SPP_PER_FRAME);
+    (0..frames).map(|f| n / frames + u32::from(f < n % frames)).collect()
+}
+
+/// Check, before any GPU work, that `dir` is or can become a folder the demo writes in: an unusable output folder
+/// is found in milliseconds, not after every frame has rendered. Nothing is created: the probe file goes into
+/// `dir`, or into its nearest existing ancestor when `dir` does not exist yet (the writes create it).
+fn check_output_dir(dir: &Path, what: &str) -> anyhow::Result<()> {
+    let mut existing = dir;
+    while !existing.exists() {
+        existing = match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+    }
+    anyhow::ensure!(existing.is_dir(), "{what} {}: {} is not a folder", dir.display(), existing.display());
+    let probe = existing.join(format!(".demo-write-check-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("{what} {}: cannot write in {}", dir.display(), existing.display()))?;
+    std::fs::remove_file(&probe).with_context(|| format!("removing {}", probe.display()))?;
+    Ok(())
+}
+
+/// An output file that exists must be a file (a folder in its place would only fail at the write).
+fn check_output_file(path: &Path) -> anyhow::Result<()> {
+    anyhow::ensure!(!path.is_dir(), "cannot write {}: it is a folder", path.display());
+    Ok(())
+}
+
+/// Everything the arguments say that can be checked without a GPU: the technique spec (each key once), the
+/// reference-only options, the output folders and files.
+fn check_args(args: &Args) -> anyhow::Result<()> {
+    let (technique, _) = engine::passes::shade::parse_technique(&args.technique)?;
+    if args.spp.is_some() && technique.name != engine::passes::shade::reference::ENTRY.name {
+        anyhow::bail!(
+            "--spp applies to --technique reference only ('{}' renders one deterministic image per frame)",
+            technique.name
+        );
+    }
+    if args.window {
+        return Ok(());
+    }
+    let (out, name) = output_target(args);
+    if args.capture.is_some() {
+        check_output_dir(&out.join("capture"), "--out")?;
+        for ext in ["csv", "json", "svg"] {
+            check_output_file(&out.join("capture").join(format!("{name}.{ext}")))?;
+        }
+    } else {
+        check_output_dir(&out, if args.export.is_some() { "--export" } else { "--out" })?;
+        for ext in ["exr", "png"] {
+            check_output_file(&out.join(format!("{name}.{ext}")))?;
+        }
+    }
+    Ok(())
+}
+
+/// Where the images go: `--out`/`--name`, or the export folder as `engine.exr`/`engine.png`.
+fn output_target(args: &Args) -> (PathBuf, String) {
+    match &args.export {
+        Some(dir) => (dir.clone(), "engine".into()),
+        None => (args.out.clone(), args.name.clone()),
+    }
+}
+
 fn run() -> anyhow::Result<()> {
     let mut args = parse_args();
-    // Bad technique specs fail before any GPU work, naming the bad key.
-    engine::passes::shade::parse_technique(&args.technique)?;
+    // Bad specs, options that do not apply and unusable outputs fail before any GPU work.
+    check_args(&args)?;
     let entry = demos::scenes::find(&args.scene)?;
     let mut scene = demos::scenes::build(entry.name, args.env.as_deref())?;
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
+    }
+    let animation = if args.animate { demos::Animation::for_entry(entry, &scene) } else { None };
+    if args.animate && animation.is_none() {
+        eprintln!(
+            "warning: scene '{}' has no animation ({} do); rendering it static",
+            args.scene,
+            demos::scenes::animated_names()
+        );
+    }
+    if animation.is_some() && args.spp.is_some() {
+        // Every frame is a new pose and the reference restarts its accumulation at each one.
+        anyhow::bail!("--spp with --animate: the reference restarts its samples at every new pose; drop one of them");
     }
     // A window needs its display's surface extensions on the instance: open the display first.
     let (event_loop, surface_extensions) = match args.window {
@@ -117,8 +232,36 @@ fn run() -> anyhow::Result<()> {
         }
         false => (None, Vec::new()),
     };
-    let gpu = Gpu::new(&GpuDesc { device_name: args.device.clone(), surface_extensions, ..GpuDesc::default() })?;
-    let (default_w, default_h) = default_size(&gpu);
+    // `--device` wins; without it, GpuDesc::default() reads ENGINE_DEVICE (an empty value counts as unset).
+    let defaults = GpuDesc::default();
+    let device_name = args.device.clone().or(defaults.device_name.clone().filter(|d| !d.is_empty()));
+    let from_env = args.device.is_none().then(|| device_name.clone()).flatten();
+    let gpu = Gpu::new(&GpuDesc { device_name, surface_extensions, ..defaults }).map_err(|e| match &from_env {
+        // The engine's message speaks of --device; say where the text came from.
+        Some(name) => anyhow::Error::new(e).context(format!("ENGINE_DEVICE={name}")),
+        None => e.into(),
+    })?;
+    // From here on every error path releases what it made before returning, so the error prints alone.
+    let result = render_on(&gpu, &mut args, &scene, entry, animation, event_loop);
+    let teardown = gpu.shutdown();
+    match (result, teardown) {
+        (Ok(()), t) => t.map_err(Into::into),
+        // A teardown problem after an error is a second fault; name it after the first, in one message.
+        (Err(e), Err(t)) => Err(anyhow::anyhow!("{e:#}\n(and the teardown after it failed: {t})")),
+        (Err(e), Ok(())) => Err(e),
+    }
+}
+
+/// Everything that needs the GPU: the renderer is destroyed on every path out.
+fn render_on(
+    gpu: &Gpu,
+    args: &mut Args,
+    scene: &engine::scene::Scene,
+    entry: &demos::scenes::SceneEntry,
+    animation: Option<demos::Animation>,
+    event_loop: Option<winit::event_loop::EventLoop<()>>,
+) -> anyhow::Result<()> {
+    let (default_w, default_h) = default_size(gpu);
     let (width, height) = (args.width.unwrap_or(default_w), args.height.unwrap_or(default_h));
     (args.width, args.height) = (Some(width), Some(height));
     let settings = RenderSettings {
@@ -128,64 +271,61 @@ fn run() -> anyhow::Result<()> {
         per_vertex: args.per_vertex,
         exposure: args.exposure,
     };
-    eprintln!("preparing scene '{}' with technique '{}' at {}x{}...", args.scene, args.technique, width, height);
+    eprintln!("preparing scene '{}' with technique '{}' at {}x{}...", entry.name, args.technique, width, height);
     let t0 = std::time::Instant::now();
-    let mut renderer = Renderer::new(&gpu, &scene, settings)?;
+    let mut renderer = Renderer::new(gpu, scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
-    if args.spp.is_some() && engine::converge::reference_mut(&mut renderer).is_none() {
-        eprintln!("warning: --spp applies to --technique reference only; ignored by '{}'", args.technique);
+    let result = drive(gpu, &mut renderer, args, scene, animation, event_loop);
+    renderer.destroy(gpu);
+    result
+}
+
+/// Render what the arguments ask for with a prepared renderer.
+fn drive(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    args: &mut Args,
+    scene: &engine::scene::Scene,
+    animation: Option<demos::Animation>,
+    event_loop: Option<winit::event_loop::EventLoop<()>>,
+) -> anyhow::Result<()> {
+    let schedule = args.spp.map(spp_schedule);
+    if let (Some(s), Some(r)) = (&schedule, engine::converge::reference_mut(renderer)) {
+        r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: s[0], ..r.options() })?;
     }
-    if let (Some(spp), Some(r)) = (args.spp, engine::converge::reference_mut(&mut renderer)) {
-        let per_frame = spp.clamp(1, 64);
-        r.set_options(engine::passes::shade::reference::ReferenceOptions {
-            samples_per_frame: per_frame,
-            ..r.options()
-        })?;
-        args.frames = spp.div_ceil(per_frame);
-    }
-    if let Some(dir) = &args.export {
-        let opts = demos::export::ExportOptions { width, height, spp: 256, camera: None };
-        let e = demos::export::export_mitsuba(&scene, dir, &opts)?;
-        println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
-        (args.out, args.name) = (dir.clone(), "engine".into());
-    }
-    let animation = if args.animate { demos::Animation::for_entry(entry, &scene) } else { None };
     if animation.is_some() && args.technique.starts_with("reference") {
         eprintln!(
-            "warning: the reference's triangle BVH is built once at the first pose; with --animate its \
-             triangle visibility does not follow the motion (sphere visibility does)"
+            "note: the reference restarts its accumulation at every new pose: each --animate frame holds that \
+             frame's samples only"
         );
     }
-    if args.animate && animation.is_none() {
-        eprintln!(
-            "warning: scene '{}' has no animation ({} do); rendering it static",
-            args.scene,
-            demos::scenes::animated_names()
-        );
+    if let Some(dir) = &args.export {
+        let (width, height) = (args.width.unwrap_or(0), args.height.unwrap_or(0));
+        let opts = demos::export::ExportOptions { width, height, spp: 256, camera: None };
+        let e = demos::export::export_mitsuba(scene, dir, &opts)?;
+        println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
     }
-    let result = match event_loop {
+    (args.out, args.name) = output_target(args);
+    match event_loop {
         Some(el) => demos::viewer::run(
             el,
-            &gpu,
-            &mut renderer,
-            demos::viewer::ViewerOptions { exit_after: args.exit_after, animation },
+            gpu,
+            renderer,
+            demos::viewer::ViewerOptions { exit_after: args.exit_after.unwrap_or(0), animation },
         ),
         None => match args.capture {
             Some(n) => demos::capture::run(
-                &gpu,
-                &mut renderer,
+                gpu,
+                renderer,
                 n,
                 &args.out,
                 &args.name,
-                &capture_info(&gpu, &args),
+                &capture_info(gpu, args),
                 animation.as_ref(),
             ),
-            None => render_frames(&gpu, &mut renderer, &args, animation.as_ref()),
+            None => render_frames(gpu, renderer, args, animation.as_ref(), schedule.as_deref()),
         },
-    };
-    renderer.destroy(&gpu);
-    gpu.shutdown()?;
-    result
+    }
 }
 
 fn capture_info(gpu: &Gpu, args: &Args) -> demos::capture::CaptureInfo {
@@ -214,13 +354,19 @@ fn render_frames(
     renderer: &mut Renderer,
     args: &Args,
     animation: Option<&demos::Animation>,
+    schedule: Option<&[u32]>,
 ) -> anyhow::Result<()> {
-    let frames = args.frames.max(1);
+    let frames = schedule.map_or(args.frames.unwrap_or(5), |s| s.len() as u32);
+    let total_spp: u32 = schedule.map_or(0, |s| s.iter().sum());
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
     let mut after_first = None;
+    let mut progress = Progress::new(frames);
     for f in 0..frames {
         if let Some(a) = animation {
             a.apply(renderer, f as f32 / 30.0)?;
+        }
+        if let (Some(s), Some(r)) = (schedule, engine::converge::reference_mut(renderer)) {
+            r.set_samples_per_frame(s[f as usize])?;
         }
         let timings = renderer.render(gpu)?;
         if f == 0 {
@@ -232,6 +378,9 @@ fn render_frames(
                 None => per_pass.push((t.name, vec![t.ms])),
             }
         }
+        let per_vertex = renderer.settings.per_vertex;
+        let samples = engine::converge::reference_mut(renderer).map(|r| r.samples(per_vertex));
+        progress.frame_done(f + 1, samples.filter(|_| schedule.is_some()).map(|n| (n, total_spp)));
     }
     let after_last = gpu.memory_stats();
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -282,4 +431,70 @@ fn render_frames(
         );
     }
     Ok(())
+}
+
+/// Progress of a long headless run on stderr: nothing for runs under [`PROGRESS_EVERY_S`], then one line per
+/// interval with the frames (and the reference's samples) done and the time left at the rate so far.
+struct Progress {
+    frames: u32,
+    every: f64,
+    start: std::time::Instant,
+    last: f64,
+}
+
+impl Progress {
+    fn new(frames: u32) -> Self {
+        let every = std::env::var("DEMO_PROGRESS_S")
+            .ok()
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .filter(|s| s.is_finite() && *s >= 0.0)
+            .unwrap_or(PROGRESS_EVERY_S);
+        Self { frames, every, start: std::time::Instant::now(), last: 0.0 }
+    }
+
+    fn frame_done(&mut self, done: u32, samples: Option<(u32, u32)>) {
+        let t = self.start.elapsed().as_secs_f64();
+        if done == self.frames || t - self.last < self.every {
+            return;
+        }
+        self.last = t;
+        let left = t / done as f64 * (self.frames - done) as f64;
+        let spp = samples.map(|(n, of)| format!(", {n} of {of} samples per pixel")).unwrap_or_default();
+        eprintln!(
+            "frame {done} of {} ({:.0} %{spp}), {t:.1} s so far, about {left:.0} s left",
+            self.frames,
+            100.0 * done as f64 / self.frames as f64
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spp_schedules_sum_to_the_request() {
+        assert_eq!(spp_schedule(1), vec![1]);
+        assert_eq!(spp_schedule(64), vec![64]);
+        assert_eq!(spp_schedule(65), vec![33, 32]);
+        assert_eq!(spp_schedule(256), vec![64; 4]);
+        for n in [1, 2, 63, 64, 65, 127, 128, 129, 1000, 4097, MAX_SPP - 1, MAX_SPP] {
+            let s = spp_schedule(n);
+            assert_eq!(s.iter().sum::<u32>(), n, "{n}");
+            assert_eq!(s.len() as u32, n.div_ceil(SPP_PER_FRAME), "{n}");
+            assert!(s.iter().all(|&k| (1..=SPP_PER_FRAME).contains(&k)), "{n}: {s:?}");
+        }
+    }
+
+    #[test]
+    fn exposure_and_name_parsers() {
+        for bad in ["nan", "NaN", "inf", "-inf", "-1", "0", "1e7", "x", ""] {
+            assert!(parse_exposure(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_exposure("2.5"), Ok(2.5));
+        for bad in ["", ".", "..", "a/b", "a\\b", "/abs"] {
+            assert!(parse_name(bad).is_err(), "{bad:?}");
+        }
+        assert_eq!(parse_name("shot-1").as_deref(), Ok("shot-1"));
+    }
 }

@@ -137,6 +137,10 @@ pub fn parse(what: &str, schema: &[OptionSpec], pairs: &[(String, String)]) -> R
                 format!("{what} has no option '{k}' (options: {})", keys.join(", "))
             }));
         };
+        // A key given twice (also through an alias) has no one meaning: refuse it rather than keep either.
+        if values.iter().any(|(key, _, given)| *key == s.key && *given) {
+            return Err(OptionError(format!("{what} option '{}' is given more than once", s.key)));
+        }
         let value = parse_value(s.kind, v)
             .ok_or_else(|| OptionError(format!("{what} option '{}' = '{v}': expected {}", s.key, s.kind.accepted())))?;
         values.retain(|(key, _, _)| *key != s.key);
@@ -265,6 +269,9 @@ mod tests {
             ("t=0/0/0", "direction"),
             ("t=1/2", "direction"),
             ("bogus=1", "no option 'bogus' (options: K, eps, mode, t)"),
+            // A repeated key (the same one, or a key and its alias) is refused, whichever value came last.
+            ("K=4,K=8", "'K' is given more than once"),
+            ("K=4,k=4", "'K' is given more than once"),
         ] {
             let e = parse("x", SCHEMA, &pairs(spec)).unwrap_err().0;
             assert!(e.contains(needle), "{spec}: {e}");

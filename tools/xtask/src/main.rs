@@ -26,24 +26,27 @@ pub(crate) fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn usage() -> ! {
-    eprintln!(
-        "usage: cargo xtask <command> [args]\n\
-         commands:\n  \
-         demo [demo args]   set up, build (release) and render the default scene to out/ (see --help)\n  \
-         test               set up, then run every test (validation layers on)\n  \
-         bless              re-render the reference images of the image tests\n  \
-         setup              only install what is missing\n  \
-         spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)\n  \
-         tables [--check]   regenerate the binary math tables in assets/tables (or check them)\n  \
-         report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)"
-    );
+/// The help text: every subcommand with what it does.
+const USAGE: &str = "usage: cargo xtask <command> [args]
+commands:
+  demo [demo args]   set up, build (release) and render the default scene to out/ (see `cargo xtask demo --help`)
+  test [cargo args]  set up, then check formatting and lints and run every test (validation layers on)
+  bless              re-render the reference images of the image tests
+  setup              only install what is missing
+  spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)
+  tables [--check]   regenerate the binary math tables in assets/tables (or check them)
+  report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)
+  help, -h, --help   print this text";
+
+/// A usage error: the text on stderr, exit status 2 (what command-line tools use for bad usage).
+fn usage_error(message: &str) -> ! {
+    eprintln!("xtask: {message}\n{USAGE}");
     std::process::exit(2)
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(cmd) = args.first() else { usage() };
+    let Some(cmd) = args.first() else { usage_error("no command given") };
     let rest = &args[1..];
     let result = match cmd.as_str() {
         "setup" => setup(),
@@ -53,11 +56,12 @@ fn main() {
         "spheres" => spheres(rest),
         "tables" => tables::run(rest),
         "report" => setup().and_then(|_| report::run(rest)),
-        "-h" | "--help" | "help" => usage(),
-        other => {
-            eprintln!("unknown command '{other}'");
-            usage()
+        // Asking for help is not an error: the text on stdout, status 0.
+        "-h" | "--help" | "help" => {
+            println!("{USAGE}");
+            Ok(())
         }
+        other => usage_error(&format!("unknown command '{other}'")),
     };
     if let Err(e) = result {
         eprintln!("xtask: {e:#}");
@@ -162,7 +166,8 @@ fn test(rest: &[String]) -> Result<()> {
     // Validation layers required in every GPU test; any validation error fails teardown.
     let mut c = cargo();
     c.env("ENGINE_VALIDATION", "1");
-    c.args(["test", "--workspace", "--exclude", "xtask"]).args(rest);
+    // xtask's own tests (tools/xtask/tests: --help) are part of the suite.
+    c.args(["test", "--workspace"]).args(rest);
     run(c)?;
     eprintln!("xtask: all tests passed in {:.0} s", t0.elapsed().as_secs_f64());
     Ok(())

@@ -13,13 +13,14 @@
 
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
+use crate::resources::blockers::GpuVertexSkin;
 use crate::resources::layout::{FrameData, GpuObject, GpuVertex};
 use crate::resources::Geometry;
 use crate::scene::triangle_bvh::{TriNode, TriangleBvh};
 use bytemuck::{Pod, Zeroable};
 use engine_math::envmap::{texel_solid_angle, LatLongMap};
 use glam::{Mat4, Vec3, Vec4};
-use std::cell::{Cell, RefCell};
+use std::cell::{Cell, Ref, RefCell};
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "reference",
@@ -193,51 +194,155 @@ impl Accum {
 struct Tables {
     marginal: Buffer,
     conditional: Buffer,
-    nodes: Buffer,
-    triangles: Buffer,
+    /// The triangle BVH of the pose it was built for; rebuilt by `record` when the pose changes.
+    triangles: RefCell<PosedTriangles>,
+    /// The skin pass's inputs, read back once, to pose the triangles on the host.
+    rest: RestGeometry,
     /// Count of non-finite samples since `prepare` (host-visible).
     diagnostics: Buffer,
     vertex_accum: Accum,
     env_size: (u32, u32),
     env_total: f32,
-    scene_diagonal: f32,
 }
 
 impl Tables {
     fn destroy(self, gpu: &Gpu) {
-        for b in [self.marginal, self.conditional, self.nodes, self.triangles, self.diagnostics] {
+        for b in [self.marginal, self.conditional, self.diagnostics] {
             gpu.destroy_buffer(b);
         }
+        self.triangles.into_inner().destroy(gpu);
         self.vertex_accum.destroy(gpu);
     }
 }
 
-/// World-space triangles of the scene, read back from the scene's device buffers (object-space
-/// vertices, indices, per-instance transforms), transformed as the `skin` pass does.
-fn world_triangles(gpu: &Gpu, scene: &Geometry) -> Result<Vec<[Vec3; 3]>> {
-    let vertices: Vec<GpuVertex> = gpu.read_buffer(&scene.vertices)?;
-    let indices: Vec<u32> = gpu.read_buffer(&scene.indices)?;
-    let objects: Vec<GpuObject> = gpu.read_buffer(&scene.objects)?;
-    let world: Vec<Vec3> = vertices[..scene.vertex_count as usize]
-        .iter()
-        .map(|v| {
-            let model =
-                objects.get(v.instance as usize).map(|o| Mat4::from_cols_array(&o.model)).unwrap_or(Mat4::IDENTITY);
-            (model * Vec4::new(v.position[0], v.position[1], v.position[2], 1.0)).truncate()
-        })
-        .collect();
-    indices[..scene.index_count as usize]
-        .chunks_exact(3)
-        .map(|t| {
-            let get = |i: u32| {
-                world
-                    .get(i as usize)
-                    .copied()
-                    .ok_or_else(|| GpuError::Other(format!("reference: index {i} out of range")))
-            };
-            Ok([get(t[0])?, get(t[1])?, get(t[2])?])
-        })
-        .collect()
+/// What the `skin` pass reads (object-space vertices, their bone influences, the indices), kept on the host so
+/// that the triangles can be posed again without reading device memory.
+struct RestGeometry {
+    vertices: Vec<GpuVertex>,
+    skins: Vec<GpuVertexSkin>,
+    indices: Vec<u32>,
+    bone_count: usize,
+}
+
+impl RestGeometry {
+    fn read(gpu: &Gpu, scene: &Geometry) -> Result<Self> {
+        let mut vertices: Vec<GpuVertex> = gpu.read_buffer(&scene.vertices)?;
+        let mut indices: Vec<u32> = gpu.read_buffer(&scene.indices)?;
+        let skins: Vec<GpuVertexSkin> = gpu.read_buffer(&scene.vertex_skins)?;
+        vertices.truncate(scene.vertex_count as usize);
+        indices.truncate(scene.index_count as usize);
+        Ok(Self { vertices, skins, indices, bone_count: scene.bone_count as usize })
+    }
+
+    /// World-space triangles at `pose`, by the skin pass's formula ([`skinned_position`]).
+    fn world_triangles(&self, pose: &Pose) -> Result<Vec<[Vec3; 3]>> {
+        let bones: Vec<Mat4> =
+            pose.bones.chunks_exact(16).take(self.bone_count).map(|c| Mat4::from_cols_slice(c)).collect();
+        let models: Vec<Mat4> = pose.objects.iter().map(|o| Mat4::from_cols_array(&o.model)).collect();
+        let world: Vec<Vec3> = self
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let model = models.get(v.instance as usize).copied().unwrap_or(Mat4::IDENTITY);
+                let skin = self.skins.get(i).copied().unwrap_or_default();
+                skinned_position(model, skin_matrix(skin.joints, skin.weights, &bones), Vec3::from(v.position))
+            })
+            .collect();
+        self.indices
+            .chunks_exact(3)
+            .map(|t| {
+                let get = |i: u32| {
+                    world
+                        .get(i as usize)
+                        .copied()
+                        .ok_or_else(|| GpuError::Other(format!("reference: index {i} out of range")))
+                };
+                Ok([get(t[0])?, get(t[1])?, get(t[2])?])
+            })
+            .collect()
+    }
+}
+
+/// The pose of the scene as the next frame's `skin` pass sees it: the bone matrices and instance transforms in
+/// their host-visible buffers (`Renderer::set_bones`, `Renderer::set_instance_transform`), compared bit for bit.
+#[derive(Clone, Debug, PartialEq)]
+struct Pose {
+    bones: Vec<f32>,
+    objects: Vec<GpuObject>,
+}
+
+impl Pose {
+    fn read(scene: &Geometry) -> Result<Self> {
+        Ok(Self { bones: scene.bones.read()?, objects: scene.objects.read()? })
+    }
+
+    fn same_bits(&self, other: &Pose) -> bool {
+        let bits = |p: &Pose| -> (Vec<u32>, Vec<u32>) {
+            (p.bones.iter().map(|x| x.to_bits()).collect(), bytemuck::cast_slice(&p.objects).to_vec())
+        };
+        bits(self) == bits(other)
+    }
+}
+
+/// The triangle BVH in device memory and the world-space triangles it was built from (scene index order).
+struct PosedTriangles {
+    nodes: Buffer,
+    triangles: Buffer,
+    pose: Pose,
+    world: Vec<[Vec3; 3]>,
+    scene_diagonal: f32,
+}
+
+impl PosedTriangles {
+    fn build(gpu: &Gpu, rest: &RestGeometry, pose: Pose) -> Result<Self> {
+        let world = rest.world_triangles(&pose)?;
+        let bvh = TriangleBvh::build(&world);
+        let depth = bvh.depth();
+        if depth >= TRACE_STACK {
+            return Err(GpuError::Other(format!(
+                "reference: triangle BVH depth {depth} exceeds the traversal stack ({TRACE_STACK})"
+            )));
+        }
+        let scene_diagonal =
+            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.hi) - Vec3::from(n.lo)).length());
+        let nodes = gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?;
+        let triangles = match gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles) {
+            Ok(t) => t,
+            Err(e) => {
+                gpu.destroy_buffer(nodes);
+                return Err(e);
+            }
+        };
+        Ok(Self { nodes, triangles, pose, world, scene_diagonal })
+    }
+
+    fn destroy(self, gpu: &Gpu) {
+        gpu.destroy_buffer(self.nodes);
+        gpu.destroy_buffer(self.triangles);
+    }
+}
+
+/// `skin_matrix` of shaders-glsl/common/skinning.glsl in f32, operation for operation: Σ w_k B_{j_k} in k order
+/// from the zero matrix, the identity when the weights do not sum to a positive number, a bone index out of
+/// range counting as the identity. The reference poses its triangles with it, so that they are the G-buffer's
+/// (tests/tests/reference_skin.rs compares them with the skin pass's world vertices).
+pub fn skin_matrix(joints: [u32; 4], weights: [f32; 4], bones: &[Mat4]) -> Mat4 {
+    let total = weights[0] + weights[1] + weights[2] + weights[3];
+    // `!(total > 0)` of the GLSL, NaN included.
+    if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return Mat4::IDENTITY;
+    }
+    let mut m = Mat4::ZERO;
+    for k in 0..4 {
+        m += bones.get(joints[k] as usize).copied().unwrap_or(Mat4::IDENTITY) * weights[k];
+    }
+    m
+}
+
+/// shaders-glsl/skin/skin.comp's position: `(model * (bone * vec4(p, 1))).xyz`.
+pub fn skinned_position(model: Mat4, bone: Mat4, p: Vec3) -> Vec3 {
+    (model * (bone * Vec4::new(p.x, p.y, p.z, 1.0))).truncate()
 }
 
 /// Deepest BVH the GLSL traversal stack (`TRACE_STACK` in trace.glsl) holds.
@@ -378,22 +483,13 @@ impl Reference {
     fn build_tables(gpu: &Gpu, inputs: &ShadeInputs) -> Result<Tables> {
         let env = EnvSampling::build(&inputs.environment.cpu)?;
         let geometry = inputs.geometry()?;
-        let triangles = world_triangles(gpu, geometry)?;
-        let bvh = TriangleBvh::build(&triangles);
-        let depth = bvh.depth();
-        if depth >= TRACE_STACK {
-            return Err(GpuError::Other(format!(
-                "reference: triangle BVH depth {depth} exceeds the traversal stack ({TRACE_STACK})"
-            )));
-        }
-        let scene_diagonal =
-            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.hi) - Vec3::from(n.lo)).length());
+        let rest = RestGeometry::read(gpu, geometry)?;
+        // The pose the scene has now (its initial bones and transforms, or the last set_bones): the G-buffer's.
+        let triangles = PosedTriangles::build(gpu, &rest, Pose::read(geometry)?)?;
         let mut made: Vec<Buffer> = Vec::new();
         let built = (|| -> Result<()> {
             made.push(gpu.upload_buffer("reference-env-marginal", BufferDesc::gpu_only(0), &env.marginal)?);
             made.push(gpu.upload_buffer("reference-env-conditional", BufferDesc::gpu_only(0), &env.conditional)?);
-            made.push(gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?);
-            made.push(gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles)?);
             let mut diag = gpu.create_buffer("reference-diagnostics", BufferDesc::readback(16))?;
             let zeroed = diag.write(&[0u32; 4]);
             made.push(diag);
@@ -406,6 +502,7 @@ impl Reference {
                 for b in made {
                     gpu.destroy_buffer(b);
                 }
+                triangles.destroy(gpu);
                 return Err(e);
             }
         };
@@ -414,14 +511,43 @@ impl Reference {
         Ok(Tables {
             marginal: next()?,
             conditional: next()?,
-            nodes: next()?,
-            triangles: next()?,
             diagnostics: next()?,
+            triangles: RefCell::new(triangles),
+            rest,
             vertex_accum,
             env_size: (env.width as u32, env.height as u32),
             env_total: env.total as f32,
-            scene_diagonal,
         })
+    }
+
+    /// Rebuild the triangle BVH if the scene's pose (bones, instance transforms) differs from the one it was
+    /// built for; accumulated samples belong to the old pose and are discarded. Called while recording a
+    /// frame, when no frame is in flight (run_frame waits), so the old buffers are free.
+    fn follow_pose(&self, gpu: &Gpu, tables: &Tables, geometry: &Geometry) -> Result<()> {
+        let pose = Pose::read(geometry)?;
+        if tables.triangles.borrow().pose.same_bits(&pose) {
+            return Ok(());
+        }
+        let fresh = PosedTriangles::build(gpu, &tables.rest, pose)?;
+        tables.triangles.replace(fresh).destroy(gpu);
+        self.reset();
+        Ok(())
+    }
+
+    /// The world-space triangles (scene index order) the triangle BVH holds: the pose of the last recorded
+    /// frame, or of `prepare` before any. What the rays see, for tests against the skin pass.
+    pub fn posed_triangles(&self) -> Option<Ref<'_, [[Vec3; 3]]>> {
+        self.tables.as_ref().map(|t| Ref::map(t.triangles.borrow(), |p| p.world.as_slice()))
+    }
+
+    /// Samples the next frames add per item, keeping what is accumulated (integrate.glsl merges batches of any
+    /// size, Chan et al.'s update): how `demo --spp N` accumulates exactly N in frames of at most 64.
+    pub fn set_samples_per_frame(&mut self, samples: u32) -> Result<()> {
+        if samples == 0 || samples > 4096 {
+            return Err(GpuError::Other(format!("reference: samples per frame {samples} not in 1..=4096")));
+        }
+        self.options.samples_per_frame = samples;
+        Ok(())
     }
 }
 
@@ -448,6 +574,9 @@ impl Technique for Reference {
             self.reset();
             self.view.set(Some(view));
         }
+        // A new pose (set_bones, set_instance_transform) moves the triangles the rays must see.
+        self.follow_pose(rec.gpu(), t, inputs.geometry()?)?;
+        let posed = t.triangles.borrow();
         let (counter, items, name) = match target {
             ShadeTarget::Pixel { radiance, .. } => {
                 (&self.pixel_samples, radiance.desc.width * radiance.desc.height, "shade/reference")
@@ -484,7 +613,7 @@ impl Technique for Reference {
                 Visibility::Spheres => 2,
             },
             item_count: items,
-            ray_offset: self.options.ray_offset * t.scene_diagonal,
+            ray_offset: self.options.ray_offset * posed.scene_diagonal,
             env_total: t.env_total,
             sphere_count: blockers.sphere_count,
             pad0: 0.0,
@@ -504,8 +633,8 @@ impl Technique for Reference {
             Binding::buffer("AccumM2", &accum.m2),
             Binding::buffer("EnvMarginal", &t.marginal),
             Binding::buffer("EnvConditional", &t.conditional),
-            Binding::buffer("TriNodes", &t.nodes),
-            Binding::buffer("Tris", &t.triangles),
+            Binding::buffer("TriNodes", &posed.nodes),
+            Binding::buffer("Tris", &posed.triangles),
             Binding::buffer("Lights", &lights.buffer),
             Binding::buffer("Diagnostics", &t.diagnostics),
             Binding::buffer("BlockerSpheres", &blockers.spheres),
