@@ -40,7 +40,7 @@ bool isg_planes_present() {
 }
 
 // Marks the patches of g whose centre direction from the receiver is blocked by a plane; whether
-// any plane could block a patch of the grid.
+// any patch was marked by a rectangle or a half-space's cap could reach the grid.
 bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
     vec3 p = g_isg_planes_p;
     bool marked = false;
@@ -63,15 +63,21 @@ bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
         vec4 c1 = isg_cap_coords(g, e[1]);
         vec4 c2 = isg_cap_coords(g, e[2]);
         vec4 c3 = isg_cap_coords(g, e[3]);
-        for (int i = 0; i < g.side; ++i) {
+        // Only rows within π/2 of every edge normal's θ can hold a marked centre.
+        float t_lo = max(max(c0.w, c1.w), max(c2.w, c3.w)) - ISG_HALF_PI;
+        float t_hi = min(min(c0.w, c1.w), min(c2.w, c3.w)) + ISG_HALF_PI;
+        float last = float(g.side - 1);
+        int i_lo = int(clamp(ceil((t_lo - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
+        int i_hi = int(clamp(floor((t_hi - g.lo) / g.delta - 0.5), -1.0, last));
+        for (int i = i_lo; i <= i_hi; ++i) {
             uint bits = isg_cap_row_bits(g, i, c0.x, c0.y, c0.z, 0.0);
             if (bits == 0u) continue;
             bits &= isg_cap_row_bits(g, i, c1.x, c1.y, c1.z, 0.0);
             bits &= isg_cap_row_bits(g, i, c2.x, c2.y, c2.z, 0.0);
             bits &= isg_cap_row_bits(g, i, c3.x, c3.y, c3.z, 0.0);
             mask[i] |= bits;
+            if (bits != 0u) marked = true;
         }
-        marked = true;
     }
     return marked;
 }
