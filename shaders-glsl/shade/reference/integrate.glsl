@@ -199,7 +199,9 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     Material m = sp.material;
     vec3 n = sp.normal;
     vec3 v = sp.view;
-    vec3 o = sp.position + params.ray_offset * n;
+    // Rays leave from the geometric side (pbrt-v4 OffsetRayOrigin, Mitsuba 3 spawn_ray): the shading
+    // normal may lean over the triangle's plane, the geometric one is the surface the rays must clear.
+    vec3 o = sp.position + params.ray_offset * sp.geometric;
     g_receiver_p = sp.position;
     g_receiver_n = n;
     float p_spec = specular_choice(m);
