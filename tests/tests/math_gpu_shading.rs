@@ -100,6 +100,7 @@ fn conditioning(x: [[f64; 3]; 3], d: f64) -> [f64; OUT] {
 fn shading_normals_gpu_matches_cpu() {
     let cases = cases();
     let input: Vec<f32> = cases.iter().flat_map(|c| c.iter().flatten().copied()).collect();
+    assert_eq!(input.len(), cases.len() * IN);
     let gpu = test_gpu().expect("GPU");
     let out =
         run_f32_kernel(&gpu, "tests/shading_twin.comp", &input, cases.len() * OUT, cases.len() as u32).expect("kernel");
