@@ -13,9 +13,10 @@
 //! # What (production practice)
 //! 1. The side is the geometric normal's: `n_g` is turned towards the viewer, and `n_s` is turned to
 //!    `n_g`'s side (a two-sided mesh seen from behind shows its back with both normals flipped).
-//!    Rays leave from that side (the reference offsets its ray origins along the returned `n_g`), as
-//!    in pbrt-v4 (`OffsetRayOrigin` along the geometric normal) and Mitsuba 3 (`spawn_ray` offsets
-//!    along `n`, the geometric normal).
+//!    Rays leave from that side: the reference offsets its ray origins along the returned `n_g`, as
+//!    pbrt-v4 (`OffsetRayOrigin`) and Mitsuba 3 (`spawn_ray`) offset along the geometric normal
+//!    (they to each ray's side; here, reflection only, always the viewer's, so a direction below the
+//!    triangle's plane meets the surface itself rather than leaking through it).
 //! 2. Local shading normal adaptation (Keller et al. 2017, "The Iray Light Transport Simulation and
 //!    Rendering System", arXiv:1705.01263, §A.3; Cycles' `ensure_valid_reflection` is the same idea):
 //!    if the mirror direction of `v` about `n_s` does not leave the geometric surface by at least
