@@ -3,6 +3,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(binding = 3, rgba32f) uniform readonly image2D gbuf_position;
 layout(binding = 4, rgba32f) uniform readonly image2D gbuf_normal;
 layout(binding = 5, rgba32f) uniform writeonly image2D radiance;
+layout(binding = 18, rgba32f) uniform readonly image2D gbuf_geometric;
 
 vec3 camera_ray(ivec2 px) {
     vec2 ndc = (vec2(px) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
@@ -20,6 +21,7 @@ void main() {
         ShadePoint sp;
         sp.position = p.xyz;
         sp.normal = imageLoad(gbuf_normal, px).xyz;
+        sp.geometric = imageLoad(gbuf_geometric, px).xyz;
         sp.view = normalize(frame.eye.xyz - p.xyz);
         sp.material = materials[uint(p.w - 0.5)];
         result = shade_point(sp);

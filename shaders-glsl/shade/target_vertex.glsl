@@ -10,9 +10,9 @@ void main() {
     ShadePoint sp;
     sp.position = v.position.xyz;
     sp.view = normalize(frame.eye.xyz - v.position.xyz);
-    vec3 n = v.normal.xyz;
-    // Two-sided, as in the G-buffer pass.
-    sp.normal = dot(n, sp.view) < 0.0 ? -n : n;
+    // Two-sided, as in the G-buffer pass; a vertex has no face, so its normal is also the geometric
+    // one (shading_normals then only chooses the side).
+    shading_normals(v.normal.xyz, v.normal.xyz, sp.view, sp.normal, sp.geometric);
     sp.material = materials[uint(v.material)];
     vec3 result = shade_point(sp);
     if (any(isnan(result)) || any(isinf(result))) result = vec3(0.0);

@@ -98,3 +98,94 @@ pub fn ball_above_ground(env: LatLongMap, albedo: f32, center: Vec3, radius: f32
         camera: Camera { eye, target: center, fov_y_degrees: 45.0 },
     }
 }
+
+/// The grazing-normal case (issue 15, item 5): a closed box `[−1, 1] × [−0.3, 0] × [−1, 1]` whose
+/// top face (mesh 0, material 0, albedo `albedo`, `n` × `n` quads) carries vertex normals tilted by
+/// `tilt` radians away from the camera (towards −z), the rest of the box (mesh 1, material 1) flat
+/// normals, under `env`. The camera looks down at 15°–29° onto the top face, so with `tilt` above
+/// 0.51 (29°) every top-face pixel has an interpolated normal that faces away from the viewer while
+/// the geometric normal (+y) faces it; the box is closed, so a normal flipped towards the viewer
+/// points into it and the triangle reference sees nothing but the box's inside.
+pub fn tilted_normal_box(env: LatLongMap, albedo: f32, tilt: f32, n: u32) -> Scene {
+    let mut top = ground_plane(1.0, n);
+    top.name = "tilted-top".into();
+    let tilted = Vec3::new(0.0, tilt.cos(), -tilt.sin());
+    top.normals.iter_mut().for_each(|v| *v = tilted);
+    // Five flat faces below the top (outward normals; counter-clockwise seen from outside).
+    let (lo, hi) = (-0.3f32, 0.0f32);
+    let faces: [(Vec3, [Vec3; 4]); 5] = [
+        (
+            Vec3::NEG_Y,
+            [Vec3::new(-1.0, lo, -1.0), Vec3::new(1.0, lo, -1.0), Vec3::new(1.0, lo, 1.0), Vec3::new(-1.0, lo, 1.0)],
+        ),
+        (
+            Vec3::Z,
+            [Vec3::new(-1.0, lo, 1.0), Vec3::new(1.0, lo, 1.0), Vec3::new(1.0, hi, 1.0), Vec3::new(-1.0, hi, 1.0)],
+        ),
+        (
+            Vec3::NEG_Z,
+            [Vec3::new(1.0, lo, -1.0), Vec3::new(-1.0, lo, -1.0), Vec3::new(-1.0, hi, -1.0), Vec3::new(1.0, hi, -1.0)],
+        ),
+        (
+            Vec3::X,
+            [Vec3::new(1.0, lo, 1.0), Vec3::new(1.0, lo, -1.0), Vec3::new(1.0, hi, -1.0), Vec3::new(1.0, hi, 1.0)],
+        ),
+        (
+            Vec3::NEG_X,
+            [Vec3::new(-1.0, lo, -1.0), Vec3::new(-1.0, lo, 1.0), Vec3::new(-1.0, hi, 1.0), Vec3::new(-1.0, hi, -1.0)],
+        ),
+    ];
+    let mut sides =
+        engine::scene::Mesh { name: "box-sides".into(), positions: vec![], normals: vec![], indices: vec![] };
+    for (normal, quad) in faces {
+        let base = sides.positions.len() as u32;
+        sides.positions.extend_from_slice(&quad);
+        sides.normals.extend_from_slice(&[normal; 4]);
+        sides.indices.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+    Scene {
+        meshes: vec![top, sides],
+        materials: vec![Material::diffuse(Vec3::splat(albedo)), Material::diffuse(Vec3::splat(0.5))],
+        instances: vec![
+            Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 },
+            Instance { mesh: 1, transform: Mat4::IDENTITY, material: 1 },
+        ],
+        environment: env,
+        environment_intensity: 1.0,
+        lights: Vec::new(),
+        blockers: SceneBlockers { spheres: vec![None, None], ..Default::default() },
+        camera: Camera { eye: Vec3::new(0.0, 1.0, 2.8), target: Vec3::new(0.0, 0.0, 0.0), fov_y_degrees: 45.0 },
+    }
+}
+
+/// A smooth-shaded cube (half-size 1 at the origin, 8 shared corners whose normals are the corners'
+/// directions, the classic averaged-normal box) under `env`, diffuse albedo `albedo`, seen from
+/// 10°–20° above its top face: the interpolated normal tilts up to 45° towards the back on the far
+/// half of the top face, past the view direction, while the face itself faces the camera (the
+/// bunny's silhouette pixels, issue 15 item 5, over a large area).
+pub fn smooth_cube(env: LatLongMap, albedo: f32) -> Scene {
+    let positions: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            )
+        })
+        .collect();
+    let normals = positions.iter().map(|p| p.normalize()).collect();
+    // Corner index = x + 2y + 4z (bits); each face as two triangles, counter-clockwise from outside.
+    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
+    let indices = quads.iter().flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]]).collect();
+    let cube = engine::scene::Mesh { name: "smooth-cube".into(), positions, normals, indices };
+    Scene {
+        meshes: vec![cube],
+        materials: vec![Material::diffuse(Vec3::splat(albedo))],
+        instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
+        environment: env,
+        environment_intensity: 1.0,
+        lights: Vec::new(),
+        blockers: SceneBlockers { spheres: vec![None], ..Default::default() },
+        camera: Camera { eye: Vec3::new(0.0, 1.8, 3.2), target: Vec3::new(0.0, 0.3, 0.0), fov_y_degrees: 45.0 },
+    }
+}

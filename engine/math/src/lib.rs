@@ -13,6 +13,7 @@ pub mod quadrature;
 pub mod rng;
 pub mod sg;
 pub mod sh;
+pub mod shading;
 pub mod shexp;
 pub mod sphere_light;
 pub mod table_gen;

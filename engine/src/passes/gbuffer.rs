@@ -1,5 +1,7 @@
 //! `gbuffer` pass (shaders-glsl/gbuffer): raster into depth, world position (w = material + 1,
-//! 0 = background), normal, and interpolated per-vertex radiance.
+//! 0 = background), shading normal, interpolated per-vertex radiance and geometric normal. Both
+//! normals face the viewer: the side is the geometric normal's and the shading normal is adapted
+//! where it would face away (shaders-glsl/common/shading.glsl, twin `engine::math::shading`).
 
 use crate::gpu::{
     Binding, Gpu, GraphicsPipeline, GraphicsPipelineDesc, Image, ImageDesc, ImageFormat, Recorder, Result,
@@ -9,8 +11,12 @@ use crate::resources::GpuScene;
 /// The G-buffer every technique reads.
 pub struct GBuffer {
     pub position: Image,
+    /// The shading normal every technique uses (xyz, unit, facing the viewer).
     pub normal: Image,
     pub vertex_radiance: Image,
+    /// The triangle's geometric normal (xyz, unit, facing the viewer): the side the reference's rays
+    /// leave from.
+    pub geometric: Image,
     pub depth: Image,
 }
 
@@ -20,13 +26,16 @@ impl GBuffer {
         let position = gpu.create_image("gbuffer-position", t(ImageFormat::Rgba32f))?;
         let normal = gpu.create_image("gbuffer-normal", t(ImageFormat::Rgba32f));
         let vertex_radiance = gpu.create_image("gbuffer-vertex-radiance", t(ImageFormat::Rgba32f));
+        let geometric = gpu.create_image("gbuffer-geometric-normal", t(ImageFormat::Rgba32f));
         let depth = gpu.create_image("gbuffer-depth", t(ImageFormat::Depth32f));
-        match (normal, vertex_radiance, depth) {
-            (Ok(normal), Ok(vertex_radiance), Ok(depth)) => Ok(Self { position, normal, vertex_radiance, depth }),
-            (n, v, d) => {
+        match (normal, vertex_radiance, geometric, depth) {
+            (Ok(normal), Ok(vertex_radiance), Ok(geometric), Ok(depth)) => {
+                Ok(Self { position, normal, vertex_radiance, geometric, depth })
+            }
+            (n, v, g, d) => {
                 gpu.destroy_image(position);
                 let mut err = None;
-                for r in [n, v, d] {
+                for r in [n, v, g, d] {
                     match r {
                         Ok(i) => gpu.destroy_image(i),
                         Err(e) => err = err.or(Some(e)),
@@ -40,6 +49,7 @@ impl GBuffer {
         gpu.destroy_image(self.position);
         gpu.destroy_image(self.normal);
         gpu.destroy_image(self.vertex_radiance);
+        gpu.destroy_image(self.geometric);
         gpu.destroy_image(self.depth);
     }
 }
@@ -55,7 +65,12 @@ impl GBufferPass {
                 vertex: "gbuffer/gbuffer.vert",
                 fragment: "gbuffer/gbuffer.frag",
                 defines: &[],
-                color_formats: &[ImageFormat::Rgba32f, ImageFormat::Rgba32f, ImageFormat::Rgba32f],
+                color_formats: &[
+                    ImageFormat::Rgba32f,
+                    ImageFormat::Rgba32f,
+                    ImageFormat::Rgba32f,
+                    ImageFormat::Rgba32f,
+                ],
                 depth_format: Some(ImageFormat::Depth32f),
             })?,
         })
@@ -70,7 +85,7 @@ impl GBufferPass {
                 Binding::buffer("VertexRadiance", &scene.geometry.vertex_radiance),
             ],
             &[],
-            &[&gbuffer.position, &gbuffer.normal, &gbuffer.vertex_radiance],
+            &[&gbuffer.position, &gbuffer.normal, &gbuffer.vertex_radiance, &gbuffer.geometric],
             Some(&gbuffer.depth),
             &scene.geometry.indices,
             scene.geometry.index_count,

@@ -201,7 +201,11 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     Material m = sp.material;
     vec3 n = sp.normal;
     vec3 v = sp.view;
-    vec3 o = sp.position + params.ray_offset * n;
+    // Ray origins move along the geometric normal, as pbrt-v4's OffsetRayOrigin and Mitsuba 3's
+    // spawn_ray do (the shading normal may lean over the triangle's plane). Those move to the ray's
+    // side; with reflection-only BRDFs the viewer's side is used for every ray, so a direction above
+    // the shading plane but below the triangle's meets the surface itself instead of leaking through.
+    vec3 o = sp.position + params.ray_offset * sp.geometric;
     g_receiver_p = sp.position;
     g_receiver_n = n;
     float p_spec = specular_choice(m);

@@ -6,6 +6,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(binding = 3, rgba32f) uniform readonly image2D gbuf_position;
 layout(binding = 4, rgba32f) uniform readonly image2D gbuf_normal;
 layout(binding = 5, rgba32f) uniform writeonly image2D radiance;
+layout(binding = 18, rgba32f) uniform readonly image2D gbuf_geometric;
 
 // As in target_pixel.glsl.
 vec3 camera_ray(ivec2 px) {
@@ -28,6 +29,7 @@ void main() {
         ShadePoint sp;
         sp.position = p.xyz;
         sp.normal = normalize(nrm);
+        sp.geometric = imageLoad(gbuf_geometric, px).xyz;
         sp.view = normalize(frame.eye.xyz - p.xyz);
         sp.material = materials[uint(p.w - 0.5)];
         result = accumulate(item, sp);

@@ -19,7 +19,8 @@ void main() {
         sp.position = v.position.xyz;
         sp.view = normalize(frame.eye.xyz - v.position.xyz);
         n = normalize(n);
-        sp.normal = dot(n, sp.view) < 0.0 ? -n : n;
+        // As target_vertex.glsl: the vertex normal is both normals.
+        shading_normals(n, n, sp.view, sp.normal, sp.geometric);
         sp.material = materials[uint(v.material)];
         result = accumulate(i, sp);
     }

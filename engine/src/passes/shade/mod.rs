@@ -253,6 +253,7 @@ impl TargetPipelines {
                 rec.begin_pass(&format!("shade/{name}"));
                 b.push(Binding::storage_image("gbuf_position", &gbuffer.position));
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
+                b.push(Binding::storage_image("gbuf_geometric", &gbuffer.geometric));
                 b.push(Binding::storage_image("radiance", radiance));
                 rec.dispatch(&self.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])
             }

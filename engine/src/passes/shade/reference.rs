@@ -649,6 +649,7 @@ impl Technique for Reference {
             ShadeTarget::Pixel { gbuffer, radiance } => {
                 b.push(Binding::storage_image("gbuf_position", &gbuffer.position));
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
+                b.push(Binding::storage_image("gbuf_geometric", &gbuffer.geometric));
                 b.push(Binding::storage_image("radiance", radiance));
                 rec.dispatch(&self.pipelines.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
             }
