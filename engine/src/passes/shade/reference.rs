@@ -32,7 +32,8 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
         furnace: 0.02,
         unoccluded_vs_none: 0.05,
         one_sphere: Some(0.05),
-        one_plane: Some(0.05),
+        // The ball's dim underside is noise-dominated at 256 spp (measured 4.65 %; 2.3 % at 1024 spp).
+        one_plane: Some(0.08),
         samples: 256,
     },
     create: |gpu, _| Ok(Box::new(Reference::new(gpu)?)),
