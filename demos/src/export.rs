@@ -57,12 +57,45 @@ pub struct ExportOptions {
     pub spp: u32,
     /// The camera of the frame (`None`: the scene's).
     pub camera: Option<Camera>,
+    /// How materials are written (default: our exact BRDFs as the Python plugin).
+    pub bsdf: ExportBsdf,
 }
+
+/// How the export writes materials (`demo --export-bsdf`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExportBsdf {
+    /// Our exact BRDFs (all three models) as the Python plugin `ours` (ours_bsdf.py, written beside scene.xml):
+    /// exact, but the scene then loads only from Python (`render.py`, or `import ours_bsdf` first).
+    #[default]
+    Plugin,
+    /// Mitsuba's own BSDFs: `diffuse` + a Beckmann `roughconductor` blend for Blinn-Phong (module
+    /// documentation; approximate for glossy materials), loadable by the `mitsuba` command line; refuses
+    /// Cook-Torrance and Ashikhmin-Shirley.
+    Builtin,
+}
+
+impl ExportBsdf {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "plugin" => Ok(Self::Plugin),
+            "builtin" => Ok(Self::Builtin),
+            _ => Err(format!("'{s}' is not an export BSDF (plugin: our exact BRDFs as a Python plugin, builtin: \
+                              Mitsuba's diffuse/roughconductor approximation)")),
+        }
+    }
+}
+
+/// The plugin (our BRDFs as a Mitsuba 3 Python BSDF) and the runner, written beside scene.xml.
+pub const PLUGIN_PY: &str = include_str!("mitsuba/ours_bsdf.py");
+pub const RENDER_PY: &str = include_str!("mitsuba/render.py");
 
 /// Files written by [`export_mitsuba`].
 #[derive(Clone, Debug)]
 pub struct Exported {
     pub xml: PathBuf,
+    /// ours_bsdf.py (the plugin) and render.py (the runner).
+    pub plugin: PathBuf,
+    pub runner: PathBuf,
     pub meshes: Vec<PathBuf>,
     pub envmap: PathBuf,
 }
@@ -230,10 +263,50 @@ fn bsdf_xml(id: &str, m: &Material) -> String {
     )
 }
 
-/// Write `dir/scene.xml`, `dir/meshes/*.ply` and `dir/envmap.exr` (module documentation).
+/// One material as the plugin `ours` (ours_bsdf.py): every parameter of our BRDF, exactly.
+fn plugin_bsdf_xml(id: &str, m: &Material) -> String {
+    use engine::scene::{Brdf, Ndf};
+    let mut x = format!("  <bsdf type=\"ours\" id=\"{id}\">\n");
+    let float = |x: &mut String, name: &str, v: f32| {
+        let _ = writeln!(x, "    <float name=\"{name}\" value=\"{v}\"/>");
+    };
+    let model = match m.brdf {
+        Brdf::BlinnPhong => "blinn-phong",
+        Brdf::CookTorrance { ndf: Ndf::Beckmann, .. } => "cook-torrance-beckmann",
+        Brdf::CookTorrance { ndf: Ndf::Ggx, .. } => "cook-torrance-ggx",
+        Brdf::AshikhminShirley { .. } => "ashikhmin-shirley",
+    };
+    let _ = writeln!(x, "    <string name=\"model\" value=\"{model}\"/>");
+    for (key, v) in [("kd", m.diffuse), ("ks", m.specular)] {
+        for (c, value) in ["r", "g", "b"].iter().zip(v.to_array()) {
+            float(&mut x, &format!("{key}_{c}"), value);
+        }
+    }
+    match m.brdf {
+        Brdf::BlinnPhong => float(&mut x, "s", m.shininess),
+        Brdf::CookTorrance { roughness, .. } => float(&mut x, "alpha", roughness),
+        Brdf::AshikhminShirley { nu, nv } => {
+            float(&mut x, "nu", nu);
+            float(&mut x, "nv", nv);
+            for (c, value) in ["x", "y", "z"].iter().zip(m.tangent.to_array()) {
+                float(&mut x, &format!("tangent_{c}"), value);
+            }
+        }
+    }
+    x.push_str("  </bsdf>\n");
+    x
+}
+
+/// Write `dir/scene.xml`, `dir/meshes/*.ply`, `dir/envmap.exr`, `dir/ours_bsdf.py` and `dir/render.py` (module
+/// documentation).
 pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result<Exported> {
-    if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
-        anyhow::bail!("--export: material {i} is not Blinn-Phong; only Blinn-Phong materials are exported");
+    if opts.bsdf == ExportBsdf::Builtin {
+        if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
+            anyhow::bail!(
+                "--export-bsdf builtin: material {i} is not Blinn-Phong; Mitsuba's own BSDFs approximate \
+                 Blinn-Phong only (--export-bsdf plugin exports every model exactly)"
+            );
+        }
     }
     let mesh_dir = dir.join("meshes");
     std::fs::create_dir_all(&mesh_dir).with_context(|| format!("creating {}", mesh_dir.display()))?;
@@ -244,8 +317,13 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
     let _ = writeln!(
         x,
         "<!-- Exported by softshadows (demo, option export): world-space meshes, camera, environment (to_world: our \
-         lat-long convention, see demos/src/export.rs), materials (Blinn-Phong -> blendbsdf approximation), \
-         spherical lights. Render: mitsuba -m scalar_rgb scene.xml -->"
+         lat-long convention, see demos/src/export.rs), materials, spherical lights. {} -->",
+        match opts.bsdf {
+            ExportBsdf::Plugin => "Materials: our exact BRDFs as the Python plugin 'ours' (ours_bsdf.py). Render and \
+                                   compare with engine.exr: python3 render.py --spp 1024",
+            ExportBsdf::Builtin => "Materials: Blinn-Phong -> blendbsdf approximation. Render: mitsuba -m scalar_rgb \
+                                    scene.xml, or python3 render.py --spp 1024 to compare with engine.exr",
+        }
     );
     let _ = writeln!(x, "<scene version=\"3.0.0\">");
     let _ = writeln!(x, "  <default name=\"spp\" value=\"{}\"/>", opts.spp.max(1));
@@ -286,7 +364,11 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
 
     // Materials.
     for (i, mat) in scene.materials.iter().enumerate() {
-        x.push_str(&bsdf_xml(&format!("mat{i}"), mat));
+        let id = format!("mat{i}");
+        x.push_str(&match opts.bsdf {
+            ExportBsdf::Plugin => plugin_bsdf_xml(&id, mat),
+            ExportBsdf::Builtin => bsdf_xml(&id, mat),
+        });
     }
 
     // Meshes in world space.
@@ -320,7 +402,11 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
     let _ = writeln!(x, "</scene>");
     let xml = dir.join("scene.xml");
     std::fs::write(&xml, x).with_context(|| format!("writing {}", xml.display()))?;
-    Ok(Exported { xml, meshes, envmap })
+    let (plugin, runner) = (dir.join("ours_bsdf.py"), dir.join("render.py"));
+    for (path, text) in [(&plugin, PLUGIN_PY), (&runner, RENDER_PY)] {
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(Exported { xml, meshes, envmap, plugin, runner })
 }
 
 /// Directional albedo ∫ f_spec cos θ_i dω_i of the specular lobe at view angle acos(`cos_o`), for ours

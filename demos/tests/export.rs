@@ -69,7 +69,7 @@ fn named<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str, name: &str) -> Option
 /// Export, parse and check everything the XML references; returns the parsed XML text for scene-specific checks.
 fn export_and_check(scene: &Scene, tag: &str) -> (PathBuf, String) {
     let dir = out_dir(tag);
-    let opts = ExportOptions { width: 160, height: 120, spp: 64, camera: None };
+    let opts = ExportOptions { width: 160, height: 120, spp: 64, camera: None, bsdf };
     let exported = export_mitsuba(scene, &dir, &opts).expect("export");
     let text = std::fs::read_to_string(&exported.xml).expect("scene.xml");
     let doc = roxmltree::Document::parse(&text).expect("scene.xml is well-formed XML");
