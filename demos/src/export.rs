@@ -8,7 +8,9 @@
 //!   current bones applied, as the skin pass does), binary little-endian PLY with positions, vertex normals
 //!   and triangles;
 //! - `envmap.exr`: the environment resampled onto Mitsuba's lat-long grid (below), with the scene's intensity
-//!   as the emitter's `scale`.
+//!   as the emitter's `scale`;
+//! - `ours_bsdf.py`: our BRDFs as a Mitsuba 3 Python BSDF plugin (`ours`, below), `render.py`: the runner
+//!   (`python3 render.py --spp N` renders the scene through the plugin and compares with `engine.exr`, our frame).
 //!
 //! **Environment orientation.** Ours: row 0 = zenith (+Y), `d = (sin θ cos φ, cos θ, sin θ sin φ)`, `u = φ/2π`,
 //! `v = θ/π`. Mitsuba's `envmap` (src/emitters/envmap.cpp): in emitter space `d = (sin φ' sin θ, cos θ,
@@ -20,7 +22,15 @@
 //! interpolation: Mitsuba interpolates our (bilinear) map once more; our reference integrates the texels as
 //! piecewise constant.
 //!
-//! **Materials.** Ours: f = ρ_d/π + k_s (s+8)/(8π) (n·h)^s. Mitsuba 3 has no Phong BSDF; each material becomes
+//! **Materials** (`--export-bsdf`). `plugin` (default): every material is `<bsdf type="ours">` with our exact
+//! f = ρ_d/π + f_s for all three specular models (Blinn-Phong, Cook-Torrance Beckmann/GGX, Ashikhmin-Shirley;
+//! parameters per channel, the Ashikhmin-Shirley tangent as our world direction), two-sided like our G-buffer,
+//! importance-sampled as our reference samples (integrate.glsl: the model's half-vector density with
+//! probability mean(k_s)/(mean(k_s)+mean(ρ_d)), else cosine). Such a scene loads only from Python after
+//! `import ours_bsdf` (the `mitsuba` command line has no Python plugins). Measured against our reference on
+//! the bunny: see render.py's numbers in the README. `builtin`: Mitsuba's own BSDFs, approximate for
+//! glossy materials (12.7 % off on the glossy bunny), loadable by the command line, Blinn-Phong only:
+//! each material becomes
 //! `twosided(blendbsdf(weight = w, diffuse(ρ_d/(1−w)), roughconductor(beckmann, α, material="none",
 //! specular_reflectance = k_s/w)))` with w = mean(k_s)/(mean(k_s)+mean(ρ_d)) (a material with k_s = 0 is a
 //! plain `diffuse`, exact). α = sqrt(2/(s+2)) is the Beckmann roughness of the Blinn-Phong exponent (Walter et al.
@@ -30,9 +40,8 @@
 //! and the difference is large: ours falls off as about cos²θ_o (it has no 1/(4 cos θ_i cos θ_o)), the microfacet
 //! lobe keeps albedo ≈ 1. Measured for s = 200 (k_s = 1): ours 1.010 / 0.820 / 0.500 / 0.260 at cos θ_o = 1 /
 //! 0.9 / 0.7 / 0.5, the Mitsuba lobe 1.000 / 1.000 / 1.000 / 1.000 (−1 %, +22 %, +100 %, +285 %). So the
-//! export cross-checks geometry, camera, environment, visibility, lights and the diffuse term exactly, and the
-//! specular term only near normal view; an exact cross-check of glossy materials needs our BRDF as a Mitsuba
-//! plugin (not done).
+//! builtin export cross-checks geometry, camera, environment, visibility, lights and the diffuse term exactly,
+//! and the specular term only near normal view.
 //!
 //! **Spherical lights** become `sphere` shapes with an `area` emitter of the light's radiance and a black
 //! diffuse BSDF. Difference: in Mitsuba they are opaque (they cast shadows and hide the environment behind

@@ -12,7 +12,8 @@ the pixel-centre mode; scalar_rgb renders with the film.
 
 The comparison is the relative RMSE sqrt(sum (m - e)^2 / sum e^2) over RGB of the covered pixels (a Mitsuba
 camera ray through the pixel centre hits a mesh; the background shows the environment, interpolated
-differently), over all of them and per shape, raw and with Mitsuba's own noise removed (its per-pixel sample
+differently), over all of them, those where the shading and the geometric normal agree on the viewer's side, the interior ones (also all 8
+neighbours see the same shape) and per shape, raw and with Mitsuba's own noise removed (its per-pixel sample
 variance / spp; pass `--engine-rel-stderr` with the relative standard error `demo --spp` printed to remove
 ours as well).
 """
@@ -81,15 +82,27 @@ def main():
     if eng.shape[:2] != (h, w):
         sys.exit(f"{a.engine} is {eng.shape[1]}x{eng.shape[0]}, the scene {w}x{h}")
     eng = eng[:, :, :3]
-    shape_index, names = covered_shapes(mi, dr, scene, sensor, w, h, jit)
+    shape_index, names, flipped = covered_shapes(mi, dr, scene, sensor, w, h, jit)
     covered = shape_index >= 0
-    print(f"covered pixels: {covered.sum()} of {w * h}")
-    regions = [("all covered", covered)] + [(n, shape_index == i) for i, n in enumerate(names)
-                                             if (shape_index == i).any()]
+    print(f"covered pixels: {covered.sum()} of {w * h}; {flipped.sum()} of them with the interpolated normal facing "
+          "away from the camera while the triangle faces it (ours bends that normal toward the viewer, Mitsuba "
+          "does not: such a pixel is about 0 in Mitsuba)")
+    # Interior: the pixel and its 8 neighbours see the same shape (silhouettes are where the two renderers'
+    # geometry handling differs most: shading-normal treatment, ray offsets).
+    pad = np.pad(shape_index, 1, constant_values=-2)
+    same = np.ones_like(covered)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            same &= pad[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] == shape_index
+    interior = covered & same & ~flipped
+    regions = [("all covered", covered), ("normals agree", covered & ~flipped), ("interior", interior)]
+    for i, n in enumerate(names):
+        if (shape_index == i).any():
+            regions += [(n, (shape_index == i) & ~flipped), (n + " interior", interior & (shape_index == i))]
     for name, mask in regions:
         d2 = ((img - eng) ** 2)[mask].sum()
         e2 = (eng ** 2)[mask].sum()
-        if e2 <= 0.0:
+        if not mask.any() or e2 <= 0.0:
             continue
         line = f"{name:>24}: {mask.sum():6d} px, relative RMSE {100 * np.sqrt(d2 / e2):7.3f} %"
         if var is not None:
@@ -131,18 +144,23 @@ def render_pixel_centres(mi, dr, scene, sensor, w, h, spp, batch, seed):
 
 
 def covered_shapes(mi, dr, scene, sensor, w, h, jit):
-    """Per pixel the index of the non-emitting shape the pixel-centre ray hits (-1: none), and shape names."""
+    """Per pixel the index of the non-emitting shape the pixel-centre ray hits (-1: none), the shape names, and
+    per pixel whether the view is on different sides of the shading and the geometric normal there."""
     shapes = [s for s in scene.shapes() if not s.is_emitter()]
     names = [s.id() or f"shape{i}" for i, s in enumerate(shapes)]
     out = np.full(w * h, -1, dtype=np.int64)
+    flipped = np.zeros(w * h, dtype=bool)
     if jit:
         idx = dr.arange(mi.UInt32, w * h)
         pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
         ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
         si = scene.ray_intersect(ray)
         valid = np.array(si.is_valid())
+        flipped = valid & ((np.array(si.wi.z) > 0.0) != (np.array(dr.dot(si.n, -ray.d)) > 0.0))
         for i, s in enumerate(shapes):
-            hit = np.array(si.shape == mi.ShapePtr(s)) & valid
+            # drjit < 1.0 compares arrays elementwise with dr.eq (its `==` compares the objects).
+            eq = dr.eq(si.shape, mi.ShapePtr(s)) if hasattr(dr, "eq") else si.shape == mi.ShapePtr(s)
+            hit = np.array(eq) & valid
             out[hit] = i
     else:
         for p in range(w * h):
@@ -150,10 +168,11 @@ def covered_shapes(mi, dr, scene, sensor, w, h, jit):
             ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
             si = scene.ray_intersect(ray)
             if si.is_valid():
+                flipped[p] = (si.wi.z > 0.0) != (dr.dot(si.n, -ray.d) > 0.0)
                 for i, s in enumerate(shapes):
                     if si.shape == s:
                         out[p] = i
-    return out.reshape(h, w), names
+    return out.reshape(h, w), names, flipped.reshape(h, w)
 
 
 if __name__ == "__main__":
