@@ -316,6 +316,21 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
                  Blinn-Phong only (--export-bsdf plugin exports every model exactly)"
             );
         }
+        // Mitsuba refuses an RGB reflectance outside [0, 1] (its SRGBReflectanceSpectrum): the blend's scaled
+        // parts ρ_d/(1 − w) and k_s/w fit only where max ρ_d + max k_s ≲ 1 (e.g. not ρ_d 0.7, k_s 0.5).
+        for (i, m) in scene.materials.iter().enumerate() {
+            let mm = mitsuba_material(m);
+            if mm.diffuse.max_element() > 1.0 || mm.specular.max_element() > 1.0 {
+                anyhow::bail!(
+                    "--export-bsdf builtin: material {i} (rho_d {}, k_s {}) needs the blend reflectances {} and {}, \
+                     outside the [0, 1] Mitsuba accepts; --export-bsdf plugin exports it exactly",
+                    rgb(m.diffuse),
+                    rgb(m.specular),
+                    rgb(mm.diffuse),
+                    rgb(mm.specular)
+                );
+            }
+        }
     }
     let mesh_dir = dir.join("meshes");
     std::fs::create_dir_all(&mesh_dir).with_context(|| format!("creating {}", mesh_dir.display()))?;
@@ -328,10 +343,11 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
         "<!-- Exported by softshadows (demo, option export): world-space meshes, camera, environment (to_world: our \
          lat-long convention, see demos/src/export.rs), materials, spherical lights. {} -->",
         match opts.bsdf {
+            // (No double hyphen: XML comments may not contain one, so no command-line options here.)
             ExportBsdf::Plugin => "Materials: our exact BRDFs as the Python plugin 'ours' (ours_bsdf.py). Render and \
-                                   compare with engine.exr: python3 render.py --spp 1024",
+                                   compare with engine.exr: python3 render.py (options: python3 render.py -h)",
             ExportBsdf::Builtin => "Materials: Blinn-Phong -> blendbsdf approximation. Render: mitsuba -m scalar_rgb \
-                                    scene.xml, or python3 render.py --spp 1024 to compare with engine.exr",
+                                    scene.xml, or python3 render.py to compare with engine.exr",
         }
     );
     let _ = writeln!(x, "<scene version=\"3.0.0\">");

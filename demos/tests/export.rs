@@ -265,6 +265,13 @@ fn builtin_export_refuses_what_it_cannot_approximate() {
     let opts = ExportOptions { width: 8, height: 6, spp: 1, camera: None, bsdf: ExportBsdf::Builtin };
     let e = export_mitsuba(&scene, &dir, &opts).expect_err("builtin export of Ashikhmin-Shirley");
     assert!(format!("{e:#}").contains("--export-bsdf plugin"), "{e:#}");
+    // Blinn-Phong whose blend would need a reflectance above 1 (ρ_d 0.7 / (1 − w) with k_s 0.5).
+    scene.materials[0] = engine::scene::Material::glossy(Vec3::splat(0.7), 0.5, 1000.0);
+    let e = export_mitsuba(&scene, &dir, &opts).expect_err("builtin export of ρ_d 0.7, k_s 0.5");
+    assert!(format!("{e:#}").contains("outside the [0, 1]"), "{e:#}");
+    // The plugin exports both.
+    let opts = ExportOptions { bsdf: ExportBsdf::Plugin, ..opts };
+    export_mitsuba(&scene, &dir, &opts).expect("plugin export");
     assert_eq!(ExportBsdf::parse("plugin"), Ok(ExportBsdf::Plugin));
     assert!(ExportBsdf::parse("mitsuba").is_err());
     let _ = std::fs::remove_dir_all(&dir);
