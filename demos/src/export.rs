@@ -88,8 +88,10 @@ impl ExportBsdf {
         match s {
             "plugin" => Ok(Self::Plugin),
             "builtin" => Ok(Self::Builtin),
-            _ => Err(format!("'{s}' is not an export BSDF (plugin: our exact BRDFs as a Python plugin, builtin: \
-                              Mitsuba's diffuse/roughconductor approximation)")),
+            _ => Err(format!(
+                "'{s}' is not an export BSDF (plugin: our exact BRDFs as a Python plugin, builtin: \
+                              Mitsuba's diffuse/roughconductor approximation)"
+            )),
         }
     }
 }
@@ -338,7 +340,8 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
     let (_, up, _) = cam.basis();
     let mut x = String::new();
     let _ = writeln!(x, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
-    let _ = writeln!(
+    let _ =
+        writeln!(
         x,
         "<!-- Exported by softshadows (demo, option export): world-space meshes, camera, environment (to_world: our \
          lat-long convention, see demos/src/export.rs), materials, spherical lights. {} -->",

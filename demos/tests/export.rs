@@ -214,14 +214,12 @@ fn plugin_export_writes_every_model_exactly() {
     let mut scene = demos::scenes::build("bunny", None).expect("bunny scene");
     // One material per model: the bunny's Blinn-Phong, then Cook-Torrance (both NDFs) and Ashikhmin-Shirley.
     let base = scene.materials[0];
-    scene.materials.push(engine::scene::Material {
-        brdf: Brdf::CookTorrance { ndf: Ndf::Ggx, roughness: 0.25 },
-        ..base
-    });
-    scene.materials.push(engine::scene::Material {
-        brdf: Brdf::CookTorrance { ndf: Ndf::Beckmann, roughness: 0.1 },
-        ..base
-    });
+    scene
+        .materials
+        .push(engine::scene::Material { brdf: Brdf::CookTorrance { ndf: Ndf::Ggx, roughness: 0.25 }, ..base });
+    scene
+        .materials
+        .push(engine::scene::Material { brdf: Brdf::CookTorrance { ndf: Ndf::Beckmann, roughness: 0.1 }, ..base });
     scene.materials.push(engine::scene::Material {
         brdf: Brdf::AshikhminShirley { nu: 300.0, nv: 20.0 },
         tangent: Vec3::new(1.0, 0.0, 0.5),
