@@ -20,7 +20,18 @@ Usage: `import ours_bsdf` after `mi.set_variant(...)` registers the plugin `ours
 """
 
 import drjit as dr
-import mitsuba as mi
+import mitsuba as _mitsuba
+
+
+class _Variant:
+    """The variant's types, bound once at import: before 3.6 Mitsuba's variant is per thread, and the scalar
+    renderer calls the plugin from worker threads that never set one."""
+
+
+mi = _Variant()
+for _name in ("BSDF", "BSDFFlags", "BSDFSample3f", "Color3f", "Frame3f", "ParamFlags", "UInt32", "Vector3f", "warp",
+              "register_bsdf"):
+    setattr(mi, _name, getattr(_mitsuba, _name))
 
 MODELS = {"blinn-phong": 0, "cook-torrance-beckmann": 1, "cook-torrance-ggx": 2, "ashikhmin-shirley": 3}
 _PI = 3.14159265358979323846

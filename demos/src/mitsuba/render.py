@@ -8,7 +8,9 @@ Materials are our exact BRDFs (ours_bsdf.py, plugin `ours`) unless the scene was
 `--export-bsdf builtin`. By default every pixel is estimated at its centre, as our G-buffer shades it (no
 antialiasing; `--film` renders with Mitsuba's film instead: box-filtered pixels, which differ from ours along
 every silhouette). Needs a JIT variant (llvm_ad_rgb, the default where LLVM is installed, or cuda_ad_rgb) for
-the pixel-centre mode; scalar_rgb renders with the film.
+the pixel-centre mode; scalar_rgb renders with the film (slow: the plugin is called from Python per ray).
+Mitsuba >= 3.6 (drjit 1.x) needs LLVM >= 16 for llvm_ad_rgb (with LLVM 15 it aborts in code generation); with an
+older LLVM use `--variant scalar_rgb`, `cuda_ad_rgb`, or `pip install mitsuba==3.5.2` (drjit 0.4.6 works with 15).
 
 The comparison is the relative RMSE sqrt(sum (m - e)^2 / sum e^2) over RGB of the covered pixels (a Mitsuba
 camera ray through the pixel centre hits a mesh; the background shows the environment, interpolated
@@ -169,8 +171,9 @@ def covered_shapes(mi, dr, scene, sensor, w, h, jit):
             si = scene.ray_intersect(ray)
             if si.is_valid():
                 flipped[p] = (si.wi.z > 0.0) != (dr.dot(si.n, -ray.d) > 0.0)
+                hit_id = si.shape.id()  # (by id: the Python wrappers of one shape need not compare equal)
                 for i, s in enumerate(shapes):
-                    if si.shape == s:
+                    if s.id() == hit_id:
                         out[p] = i
     return out.reshape(h, w), names, flipped.reshape(h, w)
 
