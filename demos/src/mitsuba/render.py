@@ -49,13 +49,10 @@ def main():
 
     variant = a.variant
     if variant is None:
-        variant = "scalar_rgb"
-        if "llvm_ad_rgb" in mi.variants():
-            try:
-                mi.set_variant("llvm_ad_rgb")
-                variant = "llvm_ad_rgb"
-            except Exception as e:  # no LLVM library
-                print(f"llvm_ad_rgb unavailable ({e}); using scalar_rgb", file=sys.stderr)
+        variant = "llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() and llvm_works() else "scalar_rgb"
+        if variant == "scalar_rgb":
+            print("llvm_ad_rgb does not work here (no LLVM, or one too old for this drjit); using scalar_rgb",
+                  file=sys.stderr)
     mi.set_variant(variant)
     jit = not variant.startswith("scalar")
     sys.path.insert(0, here)
@@ -112,6 +109,17 @@ def main():
             line += (f", Mitsuba noise {100 * np.sqrt(var[mask].sum() / e2):6.3f} %, noise removed "
                      f"{100 * np.sqrt(max(d2 - noise, 0.0) / e2):7.3f} %")
         print(line)
+
+
+def llvm_works():
+    """Whether llvm_ad_rgb compiles a kernel, tried in a child process: drjit aborts the whole process when the
+    installed LLVM cannot generate its code (drjit 1.x with LLVM 15: `Cannot select: fmaximum`)."""
+    import subprocess
+    probe = ("import mitsuba as mi, drjit as dr; mi.set_variant('llvm_ad_rgb'); "
+             "x = dr.maximum(dr.arange(mi.Float, 16), 1.5); dr.eval(x); print(float(dr.sum(x)[0] "
+             "if hasattr(dr.sum(x), '__getitem__') else dr.sum(x)))")
+    r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    return r.returncode == 0
 
 
 def render_pixel_centres(mi, dr, scene, sensor, w, h, spp, batch, seed):
