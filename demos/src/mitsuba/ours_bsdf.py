@@ -272,6 +272,8 @@ class OursBSDF(mi.BSDF):
         put("ks", self.ks, mi.ParamFlags.NonDifferentiable)
 
     def parameters_changed(self, keys):
+        # kd/ks edited through mi.traverse are used as they are by eval; the lobe choice p_spec keeps its value
+        # from construction, which leaves the estimator unbiased (any 0 < p < 1 is), only its variance changes.
         pass
 
     def to_string(self):
