@@ -8,7 +8,9 @@
 //!   current bones applied, as the skin pass does), binary little-endian PLY with positions, vertex normals
 //!   and triangles;
 //! - `envmap.exr`: the environment resampled onto Mitsuba's lat-long grid (below), with the scene's intensity
-//!   as the emitter's `scale`.
+//!   as the emitter's `scale`;
+//! - `ours_bsdf.py`: our BRDFs as a Mitsuba 3 Python BSDF plugin (`ours`, below), `render.py`: the runner
+//!   (`python3 render.py --spp N` renders the scene through the plugin and compares with `engine.exr`, our frame).
 //!
 //! **Environment orientation.** Ours: row 0 = zenith (+Y), `d = (sin θ cos φ, cos θ, sin θ sin φ)`, `u = φ/2π`,
 //! `v = θ/π`. Mitsuba's `envmap` (src/emitters/envmap.cpp): in emitter space `d = (sin φ' sin θ, cos θ,
@@ -20,7 +22,15 @@
 //! interpolation: Mitsuba interpolates our (bilinear) map once more; our reference integrates the texels as
 //! piecewise constant.
 //!
-//! **Materials.** Ours: f = ρ_d/π + k_s (s+8)/(8π) (n·h)^s. Mitsuba 3 has no Phong BSDF; each material becomes
+//! **Materials** (`--export-bsdf`). `plugin` (default): every material is `<bsdf type="ours">` with our exact
+//! f = ρ_d/π + f_s for all three specular models (Blinn-Phong, Cook-Torrance Beckmann/GGX, Ashikhmin-Shirley;
+//! parameters per channel, the Ashikhmin-Shirley tangent as our world direction), two-sided like our G-buffer,
+//! importance-sampled as our reference samples (integrate.glsl: the model's half-vector density with
+//! probability mean(k_s)/(mean(k_s)+mean(ρ_d)), else cosine). Such a scene loads only from Python after
+//! `import ours_bsdf` (the `mitsuba` command line has no Python plugins). Measured against our reference on
+//! the bunny: see render.py's numbers in the README. `builtin`: Mitsuba's own BSDFs, approximate for
+//! glossy materials (12.7 % off on the glossy bunny), loadable by the command line, Blinn-Phong only:
+//! each material becomes
 //! `twosided(blendbsdf(weight = w, diffuse(ρ_d/(1−w)), roughconductor(beckmann, α, material="none",
 //! specular_reflectance = k_s/w)))` with w = mean(k_s)/(mean(k_s)+mean(ρ_d)) (a material with k_s = 0 is a
 //! plain `diffuse`, exact). α = sqrt(2/(s+2)) is the Beckmann roughness of the Blinn-Phong exponent (Walter et al.
@@ -30,9 +40,8 @@
 //! and the difference is large: ours falls off as about cos²θ_o (it has no 1/(4 cos θ_i cos θ_o)), the microfacet
 //! lobe keeps albedo ≈ 1. Measured for s = 200 (k_s = 1): ours 1.010 / 0.820 / 0.500 / 0.260 at cos θ_o = 1 /
 //! 0.9 / 0.7 / 0.5, the Mitsuba lobe 1.000 / 1.000 / 1.000 / 1.000 (−1 %, +22 %, +100 %, +285 %). So the
-//! export cross-checks geometry, camera, environment, visibility, lights and the diffuse term exactly, and the
-//! specular term only near normal view; an exact cross-check of glossy materials needs our BRDF as a Mitsuba
-//! plugin (not done).
+//! builtin export cross-checks geometry, camera, environment, visibility, lights and the diffuse term exactly,
+//! and the specular term only near normal view.
 //!
 //! **Spherical lights** become `sphere` shapes with an `area` emitter of the light's radiance and a black
 //! diffuse BSDF. Difference: in Mitsuba they are opaque (they cast shadows and hide the environment behind
@@ -57,12 +66,47 @@ pub struct ExportOptions {
     pub spp: u32,
     /// The camera of the frame (`None`: the scene's).
     pub camera: Option<Camera>,
+    /// How materials are written (default: our exact BRDFs as the Python plugin).
+    pub bsdf: ExportBsdf,
 }
+
+/// How the export writes materials (`demo --export-bsdf`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExportBsdf {
+    /// Our exact BRDFs (all three models) as the Python plugin `ours` (ours_bsdf.py, written beside scene.xml):
+    /// exact, but the scene then loads only from Python (`render.py`, or `import ours_bsdf` first).
+    #[default]
+    Plugin,
+    /// Mitsuba's own BSDFs: `diffuse` + a Beckmann `roughconductor` blend for Blinn-Phong (module
+    /// documentation; approximate for glossy materials), loadable by the `mitsuba` command line; refuses
+    /// Cook-Torrance and Ashikhmin-Shirley.
+    Builtin,
+}
+
+impl ExportBsdf {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "plugin" => Ok(Self::Plugin),
+            "builtin" => Ok(Self::Builtin),
+            _ => Err(format!(
+                "'{s}' is not an export BSDF (plugin: our exact BRDFs as a Python plugin, builtin: \
+                              Mitsuba's diffuse/roughconductor approximation)"
+            )),
+        }
+    }
+}
+
+/// The plugin (our BRDFs as a Mitsuba 3 Python BSDF) and the runner, written beside scene.xml.
+pub const PLUGIN_PY: &str = include_str!("mitsuba/ours_bsdf.py");
+pub const RENDER_PY: &str = include_str!("mitsuba/render.py");
 
 /// Files written by [`export_mitsuba`].
 #[derive(Clone, Debug)]
 pub struct Exported {
     pub xml: PathBuf,
+    /// ours_bsdf.py (the plugin) and render.py (the runner).
+    pub plugin: PathBuf,
+    pub runner: PathBuf,
     pub meshes: Vec<PathBuf>,
     pub envmap: PathBuf,
 }
@@ -230,10 +274,65 @@ fn bsdf_xml(id: &str, m: &Material) -> String {
     )
 }
 
-/// Write `dir/scene.xml`, `dir/meshes/*.ply` and `dir/envmap.exr` (module documentation).
+/// One material as the plugin `ours` (ours_bsdf.py): every parameter of our BRDF, exactly.
+fn plugin_bsdf_xml(id: &str, m: &Material) -> String {
+    use engine::scene::{Brdf, Ndf};
+    let mut x = format!("  <bsdf type=\"ours\" id=\"{id}\">\n");
+    let float = |x: &mut String, name: &str, v: f32| {
+        let _ = writeln!(x, "    <float name=\"{name}\" value=\"{v}\"/>");
+    };
+    let model = match m.brdf {
+        Brdf::BlinnPhong => "blinn-phong",
+        Brdf::CookTorrance { ndf: Ndf::Beckmann, .. } => "cook-torrance-beckmann",
+        Brdf::CookTorrance { ndf: Ndf::Ggx, .. } => "cook-torrance-ggx",
+        Brdf::AshikhminShirley { .. } => "ashikhmin-shirley",
+    };
+    let _ = writeln!(x, "    <string name=\"model\" value=\"{model}\"/>");
+    for (key, v) in [("kd", m.diffuse), ("ks", m.specular)] {
+        for (c, value) in ["r", "g", "b"].iter().zip(v.to_array()) {
+            float(&mut x, &format!("{key}_{c}"), value);
+        }
+    }
+    match m.brdf {
+        Brdf::BlinnPhong => float(&mut x, "s", m.shininess),
+        Brdf::CookTorrance { roughness, .. } => float(&mut x, "alpha", roughness),
+        Brdf::AshikhminShirley { nu, nv } => {
+            float(&mut x, "nu", nu);
+            float(&mut x, "nv", nv);
+            for (c, value) in ["x", "y", "z"].iter().zip(m.tangent.to_array()) {
+                float(&mut x, &format!("tangent_{c}"), value);
+            }
+        }
+    }
+    x.push_str("  </bsdf>\n");
+    x
+}
+
+/// Write `dir/scene.xml`, `dir/meshes/*.ply`, `dir/envmap.exr`, `dir/ours_bsdf.py` and `dir/render.py` (module
+/// documentation).
 pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result<Exported> {
-    if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
-        anyhow::bail!("--export: material {i} is not Blinn-Phong; only Blinn-Phong materials are exported");
+    if opts.bsdf == ExportBsdf::Builtin {
+        if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
+            anyhow::bail!(
+                "--export-bsdf builtin: material {i} is not Blinn-Phong; Mitsuba's own BSDFs approximate \
+                 Blinn-Phong only (--export-bsdf plugin exports every model exactly)"
+            );
+        }
+        // Mitsuba refuses an RGB reflectance outside [0, 1] (its SRGBReflectanceSpectrum): the blend's scaled
+        // parts ρ_d/(1 − w) and k_s/w fit only where max ρ_d + max k_s ≲ 1 (e.g. not ρ_d 0.7, k_s 0.5).
+        for (i, m) in scene.materials.iter().enumerate() {
+            let mm = mitsuba_material(m);
+            if mm.diffuse.max_element() > 1.0 || mm.specular.max_element() > 1.0 {
+                anyhow::bail!(
+                    "--export-bsdf builtin: material {i} (rho_d {}, k_s {}) needs the blend reflectances {} and {}, \
+                     outside the [0, 1] Mitsuba accepts; --export-bsdf plugin exports it exactly",
+                    rgb(m.diffuse),
+                    rgb(m.specular),
+                    rgb(mm.diffuse),
+                    rgb(mm.specular)
+                );
+            }
+        }
     }
     let mesh_dir = dir.join("meshes");
     std::fs::create_dir_all(&mesh_dir).with_context(|| format!("creating {}", mesh_dir.display()))?;
@@ -241,11 +340,18 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
     let (_, up, _) = cam.basis();
     let mut x = String::new();
     let _ = writeln!(x, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
-    let _ = writeln!(
+    let _ =
+        writeln!(
         x,
         "<!-- Exported by softshadows (demo, option export): world-space meshes, camera, environment (to_world: our \
-         lat-long convention, see demos/src/export.rs), materials (Blinn-Phong -> blendbsdf approximation), \
-         spherical lights. Render: mitsuba -m scalar_rgb scene.xml -->"
+         lat-long convention, see demos/src/export.rs), materials, spherical lights. {} -->",
+        match opts.bsdf {
+            // (No double hyphen: XML comments may not contain one, so no command-line options here.)
+            ExportBsdf::Plugin => "Materials: our exact BRDFs as the Python plugin 'ours' (ours_bsdf.py). Render and \
+                                   compare with engine.exr: python3 render.py (options: python3 render.py -h)",
+            ExportBsdf::Builtin => "Materials: Blinn-Phong -> blendbsdf approximation. Render: mitsuba -m scalar_rgb \
+                                    scene.xml, or python3 render.py to compare with engine.exr",
+        }
     );
     let _ = writeln!(x, "<scene version=\"3.0.0\">");
     let _ = writeln!(x, "  <default name=\"spp\" value=\"{}\"/>", opts.spp.max(1));
@@ -286,7 +392,11 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
 
     // Materials.
     for (i, mat) in scene.materials.iter().enumerate() {
-        x.push_str(&bsdf_xml(&format!("mat{i}"), mat));
+        let id = format!("mat{i}");
+        x.push_str(&match opts.bsdf {
+            ExportBsdf::Plugin => plugin_bsdf_xml(&id, mat),
+            ExportBsdf::Builtin => bsdf_xml(&id, mat),
+        });
     }
 
     // Meshes in world space.
@@ -320,7 +430,11 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
     let _ = writeln!(x, "</scene>");
     let xml = dir.join("scene.xml");
     std::fs::write(&xml, x).with_context(|| format!("writing {}", xml.display()))?;
-    Ok(Exported { xml, meshes, envmap })
+    let (plugin, runner) = (dir.join("ours_bsdf.py"), dir.join("render.py"));
+    for (path, text) in [(&plugin, PLUGIN_PY), (&runner, RENDER_PY)] {
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(Exported { xml, meshes, envmap, plugin, runner })
 }
 
 /// Directional albedo ∫ f_spec cos θ_i dω_i of the specular lobe at view angle acos(`cos_o`), for ours

@@ -85,10 +85,17 @@ struct Args {
     /// (`--help` lists the models and their keys).
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
-    /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr; see
-    /// demos/src/export.rs) and write our render of the same frame there as engine.exr / engine.png.
+    /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr, the BRDF plugin
+    /// ours_bsdf.py and the runner render.py; see demos/src/export.rs) and write our render of the same frame
+    /// there as engine.exr / engine.png. `python3 DIR/render.py --spp N` renders it and compares.
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
+    /// With --export: `plugin` writes our exact BRDFs as a Mitsuba Python plugin (ours_bsdf.py; the scene then
+    /// loads from Python only), `builtin` Mitsuba's own diffuse + roughconductor approximation of Blinn-Phong
+    /// (loads in the `mitsuba` command line; refuses the other models).
+    #[arg(long, value_name = "KIND", default_value = "plugin", requires = "export",
+          value_parser = demos::export::ExportBsdf::parse)]
+    export_bsdf: demos::export::ExportBsdf,
 }
 
 /// `--exposure`: finite and positive (NaN, infinities, zero and negative values give a black or undefined image).
@@ -301,7 +308,7 @@ fn drive(
     }
     if let Some(dir) = &args.export {
         let (width, height) = (args.width.unwrap_or(0), args.height.unwrap_or(0));
-        let opts = demos::export::ExportOptions { width, height, spp: 256, camera: None };
+        let opts = demos::export::ExportOptions { width, height, spp: 256, camera: None, bsdf: args.export_bsdf };
         let e = demos::export::export_mitsuba(scene, dir, &opts)?;
         println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
     }

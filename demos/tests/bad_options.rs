@@ -214,13 +214,14 @@ fn assert_error_alone(args: &[&str], needle: &str) {
 #[test]
 fn errors_after_gpu_set_up_print_alone() {
     let dir = temp("late");
-    // The Mitsuba export refuses a Cook-Torrance material; it runs once the renderer exists (the export's
-    // resolution is the render's, which depends on the adapter).
+    // The Mitsuba export with Mitsuba's own BSDFs refuses a Cook-Torrance material; it runs once the renderer
+    // exists (the export's resolution is the render's, which depends on the adapter).
     let export = dir.join("export");
     assert_error_alone(
         &[
             TINY,
-            &["--scene", "furnace", "--technique", "none", "--brdf", "cook-torrance", "--export"],
+            &["--scene", "furnace", "--technique", "none", "--brdf", "cook-torrance", "--export-bsdf", "builtin"],
+            &["--export"],
             &[export.to_str().unwrap()],
         ]
         .concat(),

@@ -2,7 +2,7 @@
 //! real XML parser reads, whose referenced files exist and parse (PLY headers and sizes match the scene's meshes, the
 //! EXR opens), with the camera, environment emitter, materials and lights carrying the scene's values.
 
-use demos::export::{export_mitsuba, ExportOptions};
+use demos::export::{export_mitsuba, ExportBsdf, ExportOptions};
 use engine::scene::Scene;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -67,9 +67,9 @@ fn named<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str, name: &str) -> Option
 }
 
 /// Export, parse and check everything the XML references; returns the parsed XML text for scene-specific checks.
-fn export_and_check(scene: &Scene, tag: &str) -> (PathBuf, String) {
+fn export_and_check(scene: &Scene, tag: &str, bsdf: ExportBsdf) -> (PathBuf, String) {
     let dir = out_dir(tag);
-    let opts = ExportOptions { width: 160, height: 120, spp: 64, camera: None };
+    let opts = ExportOptions { width: 160, height: 120, spp: 64, camera: None, bsdf };
     let exported = export_mitsuba(scene, &dir, &opts).expect("export");
     let text = std::fs::read_to_string(&exported.xml).expect("scene.xml");
     let doc = roxmltree::Document::parse(&text).expect("scene.xml is well-formed XML");
@@ -137,13 +137,36 @@ fn export_and_check(scene: &Scene, tag: &str) -> (PathBuf, String) {
         let w = inst.transform.transform_point3(mesh.positions[0]);
         assert!((Vec3::from(pos[0]) - w).length() < 1e-5, "instance {i}: {:?} vs {w}", pos[0]);
     }
+    // The plugin and the runner beside scene.xml, byte for byte the repository's files.
+    assert_eq!(exported.plugin, dir.join("ours_bsdf.py"));
+    assert_eq!(exported.runner, dir.join("render.py"));
+    assert_eq!(std::fs::read_to_string(&exported.plugin).unwrap(), demos::export::PLUGIN_PY);
+    assert_eq!(std::fs::read_to_string(&exported.runner).unwrap(), demos::export::RENDER_PY);
     (dir, text)
+}
+
+/// Python's own compiler accepts the file (as `py_compile` does, but without writing `__pycache__` beside it), or
+/// a printed reason when there is no python3.
+fn py_compiles(path: &Path) {
+    let check = "import sys; compile(open(sys.argv[1], encoding='utf-8').read(), sys.argv[1], 'exec')";
+    match std::process::Command::new("python3").arg("-c").arg(check).arg(path).output() {
+        Ok(o) => assert!(o.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&o.stderr)),
+        Err(e) => eprintln!("skipping the Python syntax check of {}: no python3 ({e})", path.display()),
+    }
+}
+
+/// The `<float>`/`<string>` parameters of a plugin material, by name.
+fn params(bsdf: roxmltree::Node) -> std::collections::HashMap<String, String> {
+    bsdf.children()
+        .filter(|c| c.is_element())
+        .map(|c| (c.attribute("name").unwrap().to_string(), c.attribute("value").unwrap().to_string()))
+        .collect()
 }
 
 #[test]
 fn bunny_exports_as_mitsuba_scene() {
     let scene = demos::scenes::build("bunny", None).expect("bunny scene");
-    let (dir, text) = export_and_check(&scene, "bunny");
+    let (dir, text) = export_and_check(&scene, "bunny", ExportBsdf::Builtin);
     // The glossy bunny is a blend of diffuse and a Beckmann conductor; the ground is plain diffuse.
     let doc = roxmltree::Document::parse(&text).unwrap();
     let mat0 = doc.descendants().find(|c| c.attribute("id") == Some("mat0")).unwrap();
@@ -162,7 +185,7 @@ fn sphere_lights_export_as_area_emitters() {
     // The registry's scene with spherical lights.
     let scene = demos::scenes::build("lamp", None).expect("lamp scene");
     assert!(scene.lights.len() >= 2 && scene.environment_intensity != 1.0, "lamp: lights and a dimmed environment");
-    let (dir, text) = export_and_check(&scene, "light");
+    let (dir, text) = export_and_check(&scene, "light", ExportBsdf::Plugin);
     let doc = roxmltree::Document::parse(&text).unwrap();
     let lights: Vec<_> = doc
         .root_element()
@@ -184,5 +207,74 @@ fn sphere_lights_export_as_area_emitters() {
         assert_eq!(emitter.attribute("type"), Some("area"));
         assert!(close(&floats(value("rgb", "radiance")), &l.radiance.to_array().map(f64::from)));
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn plugin_export_writes_every_model_exactly() {
+    use engine::scene::{Brdf, Ndf};
+    let mut scene = demos::scenes::build("bunny", None).expect("bunny scene");
+    // One material per model: the bunny's Blinn-Phong, then Cook-Torrance (both NDFs) and Ashikhmin-Shirley.
+    let base = scene.materials[0];
+    scene
+        .materials
+        .push(engine::scene::Material { brdf: Brdf::CookTorrance { ndf: Ndf::Ggx, roughness: 0.25 }, ..base });
+    scene
+        .materials
+        .push(engine::scene::Material { brdf: Brdf::CookTorrance { ndf: Ndf::Beckmann, roughness: 0.1 }, ..base });
+    scene.materials.push(engine::scene::Material {
+        brdf: Brdf::AshikhminShirley { nu: 300.0, nv: 20.0 },
+        tangent: Vec3::new(1.0, 0.0, 0.5),
+        ..base
+    });
+    let (dir, text) = export_and_check(&scene, "plugin", ExportBsdf::Plugin);
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let bsdfs: Vec<_> = doc.root_element().children().filter(|c| c.has_tag_name("bsdf")).collect();
+    assert!(bsdfs.iter().all(|b| b.attribute("type") == Some("ours")), "every material is the plugin");
+    let expect = [
+        ("blinn-phong", vec![("s", base.shininess)]),
+        ("blinn-phong", vec![("s", scene.materials[1].shininess)]),
+        ("cook-torrance-ggx", vec![("alpha", 0.25)]),
+        ("cook-torrance-beckmann", vec![("alpha", 0.1)]),
+        ("ashikhmin-shirley", vec![("nu", 300.0), ("nv", 20.0), ("tangent_x", 1.0), ("tangent_z", 0.5)]),
+    ];
+    assert_eq!(bsdfs.len(), expect.len());
+    for ((bsdf, (model, extra)), m) in bsdfs.iter().zip(&expect).zip(&scene.materials) {
+        let p = params(*bsdf);
+        assert_eq!(p["model"], *model);
+        let num = |k: &str| p[k].parse::<f32>().unwrap_or_else(|e| panic!("{k}: {e}"));
+        for (i, c) in ["r", "g", "b"].iter().enumerate() {
+            assert_eq!(num(&format!("kd_{c}")), m.diffuse[i]);
+            assert_eq!(num(&format!("ks_{c}")), m.specular[i]);
+        }
+        for (k, v) in extra {
+            assert_eq!(num(k), *v, "{model}: {k}");
+        }
+    }
+    assert!(text.contains("python3 render.py"), "scene.xml says how to render it");
+    py_compiles(&dir.join("ours_bsdf.py"));
+    py_compiles(&dir.join("render.py"));
+    // The plugin's own self-check (run by hand where Mitsuba is installed; not exported).
+    py_compiles(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src/mitsuba/check_bsdf.py"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn builtin_export_refuses_what_it_cannot_approximate() {
+    let mut scene = demos::scenes::build("bunny", None).expect("bunny scene");
+    scene.materials[0].brdf = engine::scene::Brdf::AshikhminShirley { nu: 100.0, nv: 100.0 };
+    let dir = out_dir("refuse");
+    let opts = ExportOptions { width: 8, height: 6, spp: 1, camera: None, bsdf: ExportBsdf::Builtin };
+    let e = export_mitsuba(&scene, &dir, &opts).expect_err("builtin export of Ashikhmin-Shirley");
+    assert!(format!("{e:#}").contains("--export-bsdf plugin"), "{e:#}");
+    // Blinn-Phong whose blend would need a reflectance above 1 (ρ_d 0.7 / (1 − w) with k_s 0.5).
+    scene.materials[0] = engine::scene::Material::glossy(Vec3::splat(0.7), 0.5, 1000.0);
+    let e = export_mitsuba(&scene, &dir, &opts).expect_err("builtin export of ρ_d 0.7, k_s 0.5");
+    assert!(format!("{e:#}").contains("outside the [0, 1]"), "{e:#}");
+    // The plugin exports both.
+    let opts = ExportOptions { bsdf: ExportBsdf::Plugin, ..opts };
+    export_mitsuba(&scene, &dir, &opts).expect("plugin export");
+    assert_eq!(ExportBsdf::parse("plugin"), Ok(ExportBsdf::Plugin));
+    assert!(ExportBsdf::parse("mitsuba").is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }
