@@ -287,28 +287,18 @@ pub struct Difference {
 impl Difference {
     /// Relative RMSE, %, against `norm_sq` (the reference's own Σ|r|² or another image's).
     pub fn rmse_of(&self, norm_sq: f64) -> f64 {
-        100.0 * sqrt_ratio(self.error_sq, norm_sq)
+        100.0 * engine::metrics::sqrt_ratio(self.error_sq, norm_sq)
     }
     pub fn rmse(&self) -> f64 {
         self.rmse_of(self.reference_sq)
     }
     /// The noise in the same units as [`Difference::rmse_of`].
     pub fn noise_of(&self, norm_sq: f64) -> f64 {
-        100.0 * sqrt_ratio(self.noise_sq, norm_sq)
+        100.0 * engine::metrics::sqrt_ratio(self.noise_sq, norm_sq)
     }
     /// The relative RMSE without the noise: 100 √(max(0, Σ|d|² − Σ Var d) / norm).
     pub fn debiased_of(&self, norm_sq: f64) -> f64 {
-        100.0 * sqrt_ratio((self.error_sq - self.noise_sq).max(0.0), norm_sq)
-    }
-}
-
-fn sqrt_ratio(num: f64, den: f64) -> f64 {
-    if den > 0.0 {
-        (num / den).sqrt()
-    } else if num > 0.0 {
-        f64::INFINITY
-    } else {
-        0.0
+        100.0 * engine::metrics::sqrt_ratio((self.error_sq - self.noise_sq).max(0.0), norm_sq)
     }
 }
 

@@ -39,7 +39,7 @@ fn squared_sums(t: impl Iterator<Item = [f32; 3]>, r: impl Iterator<Item = [f32;
 }
 
 /// sqrt(num / den): 0 for 0/0 and ∞ for x/0 (the relative-RMSE quotient of sums of squares).
-pub(crate) fn sqrt_ratio(num: f64, den: f64) -> f64 {
+pub fn sqrt_ratio(num: f64, den: f64) -> f64 {
     if den > 0.0 {
         (num / den).sqrt()
     } else if num > 0.0 {

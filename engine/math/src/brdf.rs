@@ -24,13 +24,13 @@
 use crate::sg::{fit_ashikhmin_shirley_compact, fit_ndf_sg, sg_integral, AshikhminShirleyFit, Ndf, Sg, Vec3};
 use std::f64::consts::PI;
 
-fn dot(a: Vec3, b: Vec3) -> f64 {
+pub(crate) fn dot(a: Vec3, b: Vec3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
-fn madd(a: Vec3, s: f64, b: Vec3) -> Vec3 {
+pub(crate) fn madd(a: Vec3, s: f64, b: Vec3) -> Vec3 {
     [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
 }
-fn scale(a: Vec3, s: f64) -> Vec3 {
+pub(crate) fn scale(a: Vec3, s: f64) -> Vec3 {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 fn normalize(a: Vec3) -> Vec3 {

@@ -34,19 +34,8 @@
 //! With `n_s = n_g` (a per-vertex target has no face: the vertex normal is both) the map is the
 //! identity apart from the side choice.
 
-pub type Vec3 = [f64; 3];
-
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn madd(a: Vec3, s: f64, b: Vec3) -> Vec3 {
-    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
-}
-
-fn scale(a: Vec3, s: f64) -> Vec3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
+use crate::brdf::{dot, madd, scale};
+pub use crate::sg::Vec3;
 
 fn length(a: Vec3) -> f64 {
     dot(a, a).sqrt()
