@@ -238,3 +238,56 @@ fn malformed_gltf_is_an_error_naming_the_file() {
         assert_err_names(&err, &p, what);
     }
 }
+
+/// Bad plane blockers are errors naming the plane or the mesh, at scene upload (`gather_planes`), before
+/// anything reaches the GPU: a marked mesh that is not flat or not a rectangle, one that also has spheres
+/// or is thin, a non-finite or degenerate explicit plane, and more planes than the stated maximum.
+#[test]
+fn bad_plane_blockers_are_refused_naming_them() {
+    use engine::resources::blockers::{gather_planes, MAX_PLANES};
+    use engine::scene::blockers::BlockerPlane;
+    use glam::DVec3;
+    let base = || {
+        engine_tests::fixtures::sphere_over_plane(
+            engine::math::envmap::LatLongMap::constant(8, 4, [1.0; 3]),
+            0.5,
+            glam::Vec3::new(0.0, 0.8, 0.0),
+            0.5,
+        )
+    };
+    let err = |s: &engine::scene::Scene| gather_planes(s).expect_err("refused").to_string();
+    // The ground (mesh 0) marked: one rectangle; the sphere (mesh 1, which has spheres) marked: refused.
+    let mut s = base();
+    s.blockers.plane_meshes = vec![true];
+    assert_eq!(gather_planes(&s).expect("the ground is a rectangle").len(), 1);
+    s.blockers.plane_meshes = vec![true, true];
+    let e = err(&s);
+    assert!(e.contains("also has spheres"), "{e}");
+    // A bent ground, and a ground with a triangle missing (not a rectangle).
+    let mut s = base();
+    s.blockers.plane_meshes = vec![true];
+    s.meshes[0].positions[10].y += 0.2;
+    let e = err(&s);
+    assert!(e.contains(&s.meshes[0].name) && e.contains("flat"), "{e}");
+    let mut s = base();
+    s.blockers.plane_meshes = vec![true];
+    let kept = s.meshes[0].indices.len() - 3;
+    s.meshes[0].indices.truncate(kept);
+    let e = err(&s);
+    assert!(e.contains("rectangle"), "{e}");
+    // Thin and plane at once.
+    let mut s = base();
+    s.blockers.plane_meshes = vec![true];
+    s.blockers.thin = vec![true];
+    assert!(err(&s).contains("thin"));
+    // Explicit planes: non-finite, degenerate rectangle, too many.
+    let mut s = base();
+    s.blockers.planes = vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::new(f64::NAN, 1.0, 0.0))];
+    let e = err(&s);
+    assert!(e.contains("plane blocker 0"), "{e}");
+    s.blockers.planes = vec![BlockerPlane::rectangle(DVec3::ZERO, DVec3::X, DVec3::ZERO)];
+    assert!(err(&s).contains("plane blocker 0"));
+    s.blockers.planes = vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y); MAX_PLANES + 1];
+    let e = err(&s);
+    assert!(e.contains(&format!("at most {MAX_PLANES}")), "{e}");
+}
