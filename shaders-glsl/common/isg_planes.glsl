@@ -26,22 +26,25 @@ bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
 #include "spheres.glsl"
 
 vec3 g_isg_planes_p = vec3(0.0);
+// Whether any plane can shadow the current receiver (set by isg_planes_begin).
+bool g_isg_planes_any = false;
 
 void isg_planes_begin(vec3 p) {
     g_isg_planes_p = p;
+    g_isg_planes_any = false;
+    for (uint k = 0u; k < ISG_PLANE_COUNT; ++k) {
+        if (plane_blocks_receiver(ISG_PLANE(k), p)) g_isg_planes_any = true;
+    }
 }
 
-// Whether any plane can shadow the current receiver.
 bool isg_planes_present() {
-    for (uint k = 0u; k < ISG_PLANE_COUNT; ++k) {
-        if (plane_blocks_receiver(ISG_PLANE(k), g_isg_planes_p)) return true;
-    }
-    return false;
+    return g_isg_planes_any;
 }
 
 // Marks the patches of g whose centre direction from the receiver is blocked by a plane; whether
 // any patch was marked by a rectangle or a half-space's cap could reach the grid.
 bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
+    if (!g_isg_planes_any) return false;
     vec3 p = g_isg_planes_p;
     bool marked = false;
     for (uint k = 0u; k < ISG_PLANE_COUNT; ++k) {

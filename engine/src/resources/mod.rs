@@ -73,8 +73,6 @@ pub struct BlockerResources {
     /// Plane blockers: `BlockerPlanes { uint count; BlockerPlane planes[]; }`
     /// ([`blockers::GpuBlockerPlane`], world space, static; at least one record).
     pub planes: Buffer,
-    /// The planes as gathered (world space), for CPU twins and tools.
-    pub cpu_planes: Vec<crate::scene::blockers::BlockerPlane>,
 }
 
 /// Thin shells (`passes::thin_shells`): per thin triangle its scene vertex indices (`uvec4`, built
@@ -204,7 +202,6 @@ impl GpuScene {
             bvh_nodes: nodes,
             sphere_count,
             planes,
-            cpu_planes: blocker_data.planes.clone(),
         };
         let thin = ThinResources {
             indices: ti,
