@@ -196,13 +196,7 @@ impl GpuScene {
             index_count: indices.len() as u32,
             bone_count,
         };
-        let blockers = BlockerResources {
-            rest,
-            spheres,
-            bvh_nodes: nodes,
-            sphere_count,
-            planes,
-        };
+        let blockers = BlockerResources { rest, spheres, bvh_nodes: nodes, sphere_count, planes };
         let thin = ThinResources {
             indices: ti,
             triangles: tt,
