@@ -65,16 +65,28 @@ pub struct CaptureInfo {
 }
 
 impl Capture {
-    /// Render `frames` frames with `renderer` and record every pass time.
-    /// Render `frames` frames, posing the scene first at t = frame / 30 s when `animation` is given.
+    /// Render `frames` frames, posing the scene first at t = frame / 30 s when `animation` is given, and record
+    /// every pass time.
     pub fn record(
         gpu: &Gpu,
         renderer: &mut Renderer,
         frames: u32,
         animation: Option<&crate::Animation>,
     ) -> Result<Self> {
+        Self::record_from(gpu, renderer, 0, frames, animation)
+    }
+
+    /// [`Capture::record`] of frames `first..first + frames` of the animation (the bench's timed frames
+    /// continue after its warm-up frames).
+    pub fn record_from(
+        gpu: &Gpu,
+        renderer: &mut Renderer,
+        first: u32,
+        frames: u32,
+        animation: Option<&crate::Animation>,
+    ) -> Result<Self> {
         let mut c = Capture::default();
-        for f in 0..frames {
+        for f in first..first + frames {
             if let Some(a) = animation {
                 a.apply(renderer, f as f32 / 30.0)?;
             }

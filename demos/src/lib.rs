@@ -4,6 +4,7 @@
 use engine::scene::Scene;
 use std::path::PathBuf;
 
+pub mod bench;
 pub mod capture;
 pub mod export;
 pub mod measure;

@@ -1,4 +1,4 @@
-//! `cargo xtask`: set-up, demo, test, bless, spheres.
+//! `cargo xtask`: set-up, demo, test, bless, spheres, tables, report, bench.
 //!
 //! Set-up installs what a fresh Debian/Ubuntu machine lacks (Vulkan loader, lavapipe, shaderc,
 //! validation layers, Xvfb and xwd for the window test) with apt when root; otherwise it prints the command and fails.
@@ -8,6 +8,7 @@ use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod bench;
 mod report;
 mod tables;
 
@@ -36,6 +37,8 @@ commands:
   spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)
   tables [--check]   regenerate the binary math tables in assets/tables (or check them)
   report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)
+  bench [bench args] per-pass GPU times of every scene × technique × rate into out/bench (`bench --help`)
+  bench-package      the bench as a folder + .tar.gz for a machine without Rust (`bench-package --help`)
   help, -h, --help   print this text";
 
 /// A usage error: the text on stderr, exit status 2 (what command-line tools use for bad usage).
@@ -56,6 +59,8 @@ fn main() {
         "spheres" => spheres(rest),
         "tables" => tables::run(rest),
         "report" => setup().and_then(|_| report::run(rest)),
+        "bench" => setup().and_then(|_| bench::bench(rest)),
+        "bench-package" => setup().and_then(|_| bench::package(rest)),
         // Asking for help is not an error: the text on stdout, status 0.
         "-h" | "--help" | "help" => {
             println!("{USAGE}");
