@@ -263,6 +263,12 @@ pub struct GraphicsPipeline {
 }
 
 impl Gpu {
+    /// Compile `path` (relative to `shaders-glsl`) to SPIR-V only (cached), surfacing GLSL errors without paying
+    /// for the driver's pipeline creation.
+    pub fn compile_compute_shader(&self, path: &str, defines: &[(&str, &str)]) -> Result<()> {
+        self.compiler.compile(path, ShaderStage::Compute, defines).map(|_| ())
+    }
+
     /// Compile `path` (relative to `shaders-glsl`) and build a compute pipeline.
     pub fn create_compute_pipeline(&self, path: &str, defines: &[(&str, &str)]) -> Result<ComputePipeline> {
         let m = self.compiler.compile(path, ShaderStage::Compute, defines)?;

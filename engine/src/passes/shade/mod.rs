@@ -198,9 +198,16 @@ pub trait Technique {
 }
 
 /// The two pipelines of a technique: `shade/<name>/pixel.comp` and `shade/<name>/vertex.comp`.
+///
+/// Both shaders are compiled to SPIR-V at creation (a GLSL error surfaces there), but each pipeline is created
+/// on its first dispatch: a renderer shades per pixel or per vertex, rarely both, and on lavapipe creating the
+/// `isg` pipeline costs ~5 s (measured: `shade/isg/pixel.comp` 4.9 s, `vertex.comp` 5.8 s of a 15 s bunny
+/// set-up in the dev profile), so the unused one is never paid for.
 pub struct TargetPipelines {
-    pub pixel: ComputePipeline,
-    pub vertex: ComputePipeline,
+    technique: String,
+    defines: Vec<(String, String)>,
+    pixel: std::cell::OnceCell<ComputePipeline>,
+    vertex: std::cell::OnceCell<ComputePipeline>,
 }
 
 impl TargetPipelines {
@@ -210,14 +217,37 @@ impl TargetPipelines {
 
     /// The same compiled with preprocessor `defines` (a variant of the technique's shaders).
     pub fn with_defines(gpu: &Gpu, technique: &str, defines: &[(&str, &str)]) -> Result<Self> {
-        let pixel = gpu.create_compute_pipeline(&format!("shade/{technique}/pixel.comp"), defines)?;
-        match gpu.create_compute_pipeline(&format!("shade/{technique}/vertex.comp"), defines) {
-            Ok(vertex) => Ok(Self { pixel, vertex }),
-            Err(e) => {
-                gpu.destroy_compute_pipeline(pixel);
-                Err(e)
+        for target in ["pixel", "vertex"] {
+            gpu.compile_compute_shader(&format!("shade/{technique}/{target}.comp"), defines)?;
+        }
+        Ok(Self {
+            technique: technique.to_string(),
+            defines: defines.iter().map(|&(k, v)| (k.to_string(), v.to_string())).collect(),
+            pixel: std::cell::OnceCell::new(),
+            vertex: std::cell::OnceCell::new(),
+        })
+    }
+
+    fn get(&self, gpu: &Gpu, per_vertex: bool) -> Result<&ComputePipeline> {
+        let (cell, target) = if per_vertex { (&self.vertex, "vertex") } else { (&self.pixel, "pixel") };
+        if cell.get().is_none() {
+            let defines: Vec<(&str, &str)> = self.defines.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+            let p = gpu.create_compute_pipeline(&format!("shade/{}/{target}.comp", self.technique), &defines)?;
+            if let Err(p) = cell.set(p) {
+                gpu.destroy_compute_pipeline(p);
             }
         }
+        cell.get().ok_or_else(|| crate::gpu::GpuError::Other("internal: shade pipeline missing".into()))
+    }
+
+    /// The per-pixel pipeline, created on first use.
+    pub fn pixel(&self, gpu: &Gpu) -> Result<&ComputePipeline> {
+        self.get(gpu, false)
+    }
+
+    /// The per-vertex pipeline, created on first use.
+    pub fn vertex(&self, gpu: &Gpu) -> Result<&ComputePipeline> {
+        self.get(gpu, true)
     }
 
     /// Dispatch the pipeline for `target` with the common bindings plus `extra`.
@@ -255,20 +285,23 @@ impl TargetPipelines {
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
                 b.push(Binding::storage_image("gbuf_geometric", &gbuffer.geometric));
                 b.push(Binding::storage_image("radiance", radiance));
-                rec.dispatch(&self.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])
+                let pipeline = self.pixel(rec.gpu())?;
+                rec.dispatch(pipeline, &b, push, [radiance.desc.width, radiance.desc.height, 1])
             }
             ShadeTarget::Vertex { world_vertices, radiance, count } => {
                 rec.begin_pass(&format!("shade/{name} (per vertex)"));
                 b.push(Binding::buffer("WorldVertices", world_vertices));
                 b.push(Binding::buffer("VertexRadiance", radiance));
-                rec.dispatch(&self.vertex, &b, push, [count, 1, 1])
+                let pipeline = self.vertex(rec.gpu())?;
+                rec.dispatch(pipeline, &b, push, [count, 1, 1])
             }
         }
     }
 
     pub fn destroy(self, gpu: &Gpu) {
-        gpu.destroy_compute_pipeline(self.pixel);
-        gpu.destroy_compute_pipeline(self.vertex);
+        for p in [self.pixel.into_inner(), self.vertex.into_inner()].into_iter().flatten() {
+            gpu.destroy_compute_pipeline(p);
+        }
     }
 }
 

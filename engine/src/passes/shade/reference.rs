@@ -652,12 +652,14 @@ impl Technique for Reference {
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
                 b.push(Binding::storage_image("gbuf_geometric", &gbuffer.geometric));
                 b.push(Binding::storage_image("radiance", radiance));
-                rec.dispatch(&self.pipelines.pixel, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
+                let pipeline = self.pipelines.pixel(rec.gpu())?;
+                rec.dispatch(pipeline, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
             }
             ShadeTarget::Vertex { world_vertices, radiance, count } => {
                 b.push(Binding::buffer("WorldVertices", world_vertices));
                 b.push(Binding::buffer("VertexRadiance", radiance));
-                rec.dispatch(&self.pipelines.vertex, &b, push, [count, 1, 1])?;
+                let pipeline = self.pipelines.vertex(rec.gpu())?;
+                rec.dispatch(pipeline, &b, push, [count, 1, 1])?;
             }
         }
         counter.set(base + samples);
