@@ -251,8 +251,8 @@ fn the_motion_replays_the_game_and_loops() {
         assert!(f.y.abs() < 1e-6, "{i}: {f}");
         let off_board = f.x.abs() > 4.0 * SQUARE || f.z.abs() > 4.0 * SQUARE;
         assert_eq!(off_board, r.captured.contains(&i), "piece {i} ({p:?}) at {f}");
-        for j in 0..i {
-            assert!(foot(end[j]).distance(f) > 0.9 * SQUARE, "pieces {j} and {i} overlap at {f}");
+        for (j, other) in end[..i].iter().enumerate() {
+            assert!(foot(*other).distance(f) > 0.9 * SQUARE, "pieces {j} and {i} overlap at {f}");
         }
     }
     // Rigid: the rotation part (the knights' facing) never changes.
