@@ -5,7 +5,7 @@
 //! names of the report sweep (tools/report/sweep.json, checked before it runs), and the tests, which build
 //! every registered scene, pose its motion and render it (demos/tests/scenes.rs, tests/tests/scenes.rs).
 //! Analytic scenes that only tests use (`sphere_over_plane`, `sheet_over_plane`) are fixtures in
-//! tests/src/fixtures.rs, not demo scenes. (chess, cloth and battle arrive with their issues.)
+//! tests/src/fixtures.rs, not demo scenes. (cloth and battle arrive with their issues.)
 //!
 //! # Adding a scene
 //!
@@ -75,6 +75,7 @@ use std::path::Path;
 
 pub mod arm;
 pub mod bunny;
+pub mod chess;
 pub mod furnace;
 pub mod lamp;
 pub mod shapes;
@@ -82,7 +83,8 @@ pub mod sheet;
 pub mod sphere;
 
 /// Every demo scene, in the order `--help` lists them.
-pub const SCENES: &[SceneEntry] = &[bunny::SCENE, lamp::SCENE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE];
+pub const SCENES: &[SceneEntry] =
+    &[bunny::SCENE, lamp::SCENE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE, chess::SCENE];
 
 /// A registered scene.
 #[derive(Clone, Copy)]
