@@ -7,7 +7,7 @@
 //   ratio vectors: the GPU BVH's node spheres are used as they are). Each blocker adds the circle
 //   log f*(u = 1 − cos θ) from the table rotated to its direction (Eq. 34). Plane blockers: a
 //   half-space below p adds the exact zonal log of the half-space (u = 1 about −m); a rectangle adds
-//   a circle of the rectangle's exact solid angle about the direction to its centre (approximation).
+//   a circle of the rectangle's exact solid angle about its cone's mean direction (approximation).
 // - g = exp*(Σ f) by HYB (default), OL or PS*-p (common/shexp_n.glsl).
 // - diffuse: ρ (L * H(N)) · g = ρ L · (H(N) * g), L the windowed order-n projection of the environment,
 //   H(N) the clamped cosine (zonal, rotated to n); diffuse=ratio instead scales the exact irradiance
@@ -90,7 +90,7 @@ float shexp_atan_triangle(vec3 a, vec3 b, vec3 c) {
 }
 
 // Plane blockers: a half-space adds the half-space's exact log (u = 1 about −m); a rectangle a
-// circle of its exact solid angle Ω (u = Ω/2π) about the direction to its centre.
+// circle of its exact solid angle Ω (u = Ω/2π) about the mean direction of its cone.
 void shexp_planes(vec3 p) {
     for (uint i = 0u; i < plane_count; ++i) {
         BlockerPlane pl = blocker_planes[i];
@@ -104,7 +104,18 @@ void shexp_planes(vec3 p) {
             vec3 a2 = c + pl.half_u.xyz + pl.half_v.xyz;
             vec3 a3 = c - pl.half_u.xyz + pl.half_v.xyz;
             float omega = shexp_atan_triangle(a0, a1, a2) + shexp_atan_triangle(a0, a2, a3);
-            shn_add_circle_log(g_log, clamp(omega / (2.0 * PI), 0.0, 1.0), c);
+            // The circle's axis: the mean direction ∫ω dω over the plate's cone, ½ Σ_edges Θ_e n_e
+            // (Arvo 1994), oriented towards the plate (for a wide plate it is −m, as for the half-space).
+            vec3 a[4] = vec3[4](a0, a1, a2, a3);
+            vec3 mean = vec3(0.0);
+            for (int k = 0; k < 4; ++k) {
+                vec3 x = cross(a[k], a[(k + 1) & 3]);
+                float lx = length(x);
+                if (lx > 0.0) mean += 0.5 * atan(lx, dot(a[k], a[(k + 1) & 3])) * x / lx;
+            }
+            if (dot(mean, c) < 0.0) mean = -mean;
+            if (!(dot(mean, mean) > 0.0)) mean = c;
+            shn_add_circle_log(g_log, clamp(omega / (2.0 * PI), 0.0, 1.0), mean);
         }
         g_blockers += 1u;
     }

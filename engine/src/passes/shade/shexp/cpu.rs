@@ -106,7 +106,7 @@ impl Twin {
                     let a = k.map(|x| x - p);
                     let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
                     let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
-                    self.add_circle(&mut f, (omega / (2.0 * PI)).clamp(0.0, 1.0), centre);
+                    self.add_circle(&mut f, (omega / (2.0 * PI)).clamp(0.0, 1.0), cone_mean_direction(&a, centre));
                 }
             }
             count += 1;
@@ -165,4 +165,25 @@ pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let num = a.dot(b.cross(c)).abs();
     let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
     2.0 * num.atan2(den)
+}
+
+/// The mean direction `∫ ω dω` over the cone from the origin through the polygon `a` (Arvo 1994:
+/// ½ Σ_edges Θ_e n_e), oriented towards `towards` (`towards` itself when it vanishes).
+pub fn cone_mean_direction(a: &[DVec3; 4], towards: DVec3) -> DVec3 {
+    let mut mean = DVec3::ZERO;
+    for k in 0..4 {
+        let x = a[k].cross(a[(k + 1) % 4]);
+        let lx = x.length();
+        if lx > 0.0 {
+            mean += 0.5 * lx.atan2(a[k].dot(a[(k + 1) % 4])) * x / lx;
+        }
+    }
+    if mean.dot(towards) < 0.0 {
+        mean = -mean;
+    }
+    if mean.length_squared() > 0.0 {
+        mean
+    } else {
+        towards
+    }
 }
