@@ -110,7 +110,7 @@ fn hard_blocker_sets_match_the_twin() {
         for x in [-0.6, -0.2, 0.0, 0.3, 0.7] {
             let (p, n) = (DVec3::new(x, 0.0, 0.1), DVec3::Y);
             let (f, _) = twin.log_visibility(p, n, &world, &[]);
-            let mut want = vec![0.0; 16];
+            let mut want = [0.0; 16];
             for s in &world {
                 let Some(b) = blocker_for_receiver(p, n, s) else { continue };
                 let theta = (b.radius / b.center.distance(p)).asin();
