@@ -30,6 +30,7 @@ fn scene_with(local: Vec<Sphere>) -> (Scene, Vec<Sphere>) {
 /// GPU vs twin relative errors (per channel, relative to max(|twin|, 1e-3 · the scene's scale)) over
 /// every `step`-th receiver; also the largest ‖f̂‖ the twin saw.
 fn compare(gpu: &engine::gpu::Gpu, scene: &Scene, world: &[Sphere], spec: &str, o: &ShexpOptions) -> (Vec<f64>, f64) {
+    let planes = scene.blockers.planes.clone();
     let settings = RenderSettings { width: W, height: H, technique: spec.into(), ..Default::default() };
     let (hdr, g) = render_with_gbuffer(gpu, scene, settings);
     assert_finite(&hdr, spec);
@@ -40,9 +41,9 @@ fn compare(gpu: &engine::gpu::Gpu, scene: &Scene, world: &[Sphere], spec: &str, 
     let mut max_norm: f64 = 0.0;
     for (i, px) in g.iter().enumerate().step_by(3) {
         let Some((p, n, m)) = *px else { continue };
-        let (f, _) = twin.log_visibility(p, n, world, &[]);
+        let (f, _) = twin.log_visibility(p, n, world);
         max_norm = max_norm.max(f[1..].iter().map(|v| v * v).sum::<f64>().sqrt());
-        let (want, free) = twin.shade_diffuse(p, n, [albedo[m]; 3], world, &[]);
+        let (want, free) = twin.shade_diffuse(p, n, [albedo[m]; 3], world, &planes);
         let got = rgb(&hdr, i);
         for c in 0..3 {
             let scale = (albedo[m] * free[c]).abs().max(1e-6);
@@ -78,6 +79,18 @@ fn gpu_matches_the_f64_twin() {
         // Measured: p95 ≤ 1.3e-6, max ≤ 2.3e-6 of the unshadowed value.
         check(&errs, spec, "one sphere", 1e-5, 1e-4);
     }
+    // The ground as a half-space plane blocker too (its visibility multiplies the ball's receivers').
+    let mut with_plane = scene.clone();
+    with_plane.blockers.planes = vec![engine::blockers::BlockerPlane::half_space(DVec3::ZERO, DVec3::Y)];
+    for (spec, order, large_product) in [
+        ("shexp:theta_max=0", 4, true),
+        ("shexp:theta_max=0,order=6", 6, true),
+        ("shexp:theta_max=0,large=log", 4, false),
+    ] {
+        let o = ShexpOptions { order, theta_max_deg: 0.0, large_product, ..ShexpOptions::default() };
+        let (errs, _) = compare(&gpu, &with_plane, &world, spec, &o);
+        check(&errs, spec, "one sphere and a half-space", 1e-5, 1e-4);
+    }
     gpu.shutdown().expect("clean teardown");
 }
 
@@ -109,7 +122,7 @@ fn hard_blocker_sets_match_the_twin() {
         let mut checked = 0;
         for x in [-0.6, -0.2, 0.0, 0.3, 0.7] {
             let (p, n) = (DVec3::new(x, 0.0, 0.1), DVec3::Y);
-            let (f, _) = twin.log_visibility(p, n, &world, &[]);
+            let (f, _) = twin.log_visibility(p, n, &world);
             let mut want = [0.0; 16];
             for s in &world {
                 let Some(b) = blocker_for_receiver(p, n, s) else { continue };
@@ -127,8 +140,12 @@ fn hard_blocker_sets_match_the_twin() {
     }
     for (local, what, min_norm) in [(overlapping, "40 overlapping spheres", 20.0), (tiny, "30 tiny spheres", 0.0)] {
         let (scene, world) = scene_with(local);
-        for (spec, exp) in [("shexp:theta_max=0", ExpChoice::Hyb), ("shexp:theta_max=0,exp=ps", ExpChoice::PsStar)] {
-            let o = ShexpOptions { exp, theta_max_deg: 0.0, ..ShexpOptions::default() };
+        // large=log: every sphere in the log (with large=product the GPU's BVH order and the twin's
+        // list order would pick different spheres once more than four are large).
+        for (spec, exp) in
+            [("shexp:theta_max=0,large=log", ExpChoice::Hyb), ("shexp:theta_max=0,large=log,exp=ps", ExpChoice::PsStar)]
+        {
+            let o = ShexpOptions { exp, theta_max_deg: 0.0, large_product: false, ..ShexpOptions::default() };
             let (errs, max_norm) = compare(&gpu, &scene, &world, spec, &o);
             eprintln!("{what}: largest ‖f̂‖ at a receiver {max_norm:.1}");
             assert!(max_norm >= min_norm, "{what}: ‖f̂‖ only reached {max_norm}");
@@ -146,7 +163,7 @@ fn hard_blocker_sets_match_the_twin() {
 #[test]
 fn sphere_crossing_the_tangent_plane_is_continuous() {
     let env = engine::math::envmap::LatLongMap::constant(32, 16, [1.0; 3]);
-    let twin = Twin::new(&ShexpOptions::default(), &env).expect("twin tables");
+    let twin = Twin::new(&ShexpOptions { large_product: false, ..ShexpOptions::default() }, &env).expect("twin tables");
     let (p, n) = (DVec3::ZERO, DVec3::Y);
     let path = |r: f64| -> Vec<f64> {
         (0..=160)
@@ -182,7 +199,8 @@ fn sphere_crossing_the_tangent_plane_is_continuous() {
 fn write_band_limited_environment() {
     use engine::math::sh::{eval, project_latlong, Window};
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let src = std::env::var("SHEXP_ENV").map(std::path::PathBuf::from).unwrap_or(root.join("assets/envmaps/courtyard.exr"));
+    let src =
+        std::env::var("SHEXP_ENV").map(std::path::PathBuf::from).unwrap_or(root.join("assets/envmaps/courtyard.exr"));
     let n: usize = std::env::var("SHEXP_ORDER").ok().and_then(|s| s.parse().ok()).unwrap_or(4);
     let out = std::env::var("SHEXP_BANDLIMITED_OUT").expect("set SHEXP_BANDLIMITED_OUT");
     let env = engine::scene::load_environment(&src).expect("environment");

@@ -6,8 +6,9 @@
 //   (the §6.2 rules, blocker_for_receiver); a node taken whole blocks as its bounding sphere (no
 //   ratio vectors: the GPU BVH's node spheres are used as they are). Each blocker adds the circle
 //   log f*(u = 1 − cos θ) from the table rotated to its direction (Eq. 34). Plane blockers: a
-//   half-space below p adds the exact zonal log of the half-space (u = 1 about −m); a rectangle adds
-//   a circle of the rectangle's exact solid angle about its cone's mean direction (approximation).
+//   half-space below p multiplies g by the exact projection of the half-space's visibility
+//   (u = 1 about −m); a rectangle by that of a circle of its exact solid angle about its cone's mean
+//   direction (approximation). Not a log: the clipped log of a hemisphere-sized circle is poor.
 // - g = exp*(Σ f) by HYB (default), OL or PS*-p (common/shexp_n.glsl).
 // - diffuse: ρ (L * H(N)) · g = ρ L · (H(N) * g), L the windowed order-n projection of the environment,
 //   H(N) the clamped cosine (zonal, rotated to n); diffuse=ratio instead scales the exact irradiance
@@ -43,6 +44,10 @@ struct ShexpParams {
     float ol_norm_max;     // the OL table's last ‖f̂‖
     uint gamma_count;      // entries of the Γ table
     uint diffuse_mode;     // 0 sh, 1 ratio
+    float large_u;         // u = 1 − cos θ above which a sphere multiplies its visibility (large=product; 2: never)
+    uint pad0;
+    uint pad1;
+    uint pad2;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
     vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
 };
@@ -71,11 +76,22 @@ vec3 g_p;
 vec3 g_n;
 uint g_blockers;
 
+// Spheres subtending more than the clip's first kink (large=product): their visibility multiplies g
+// after the exponential, up to SHEXP_MAX_LARGE of them (the rest go to the log).
+#define SHEXP_MAX_LARGE 4
+vec4 g_large[SHEXP_MAX_LARGE];  // (axis, u)
+uint g_large_count;
+
 void shexp_visit(vec4 s) {
     vec4 b;
     if (!blocker_for_receiver(g_p, g_n, s, b)) return;
     float u = shn_sphere_u(g_p, b);
     if (!(u > 0.0)) return;
+    if (u > shx.large_u && g_large_count < uint(SHEXP_MAX_LARGE)) {
+        g_large[g_large_count] = vec4(b.xyz - g_p, u);
+        g_large_count += 1u;
+        return;
+    }
     shn_add_circle_log(g_log, u, b.xyz - g_p);
     g_blockers += 1u;
 }
@@ -89,14 +105,53 @@ float shexp_atan_triangle(vec3 a, vec3 b, vec3 c) {
     return 2.0 * atan(num, den);  // Van Oosterom–Strackee: the triangle's solid angle
 }
 
-// Plane blockers: a half-space adds the half-space's exact log (u = 1 about −m); a rectangle a
-// circle of its exact solid angle Ω (u = Ω/2π) about the mean direction of its cone.
-void shexp_planes(vec3 p) {
+// The scaled zonal coefficients c*_l = 2π ∫_c^1 P_l(z) dz of the cap z ≥ c (l < SHEXP_N).
+void shexp_cap_star_raw(float c, out float cstar[SH_MAX_ORDER]) {
+    // Legendre P_0..P_n at c by the three-term recurrence.
+    float p[SH_MAX_ORDER + 1];
+    p[0] = 1.0;
+    p[1] = c;
+    for (int l = 1; l < SH_MAX_ORDER; ++l) p[l + 1] = (float(2 * l + 1) * c * p[l] - float(l) * p[l - 1]) / float(l + 1);
+    for (int l = 0; l < SH_MAX_ORDER; ++l) {
+        float integral = l == 0 ? 1.0 - c : (p[l - 1] - p[l + 1]) / float(2 * l + 1);
+        cstar[l] = l < SHEXP_N ? 2.0 * PI * integral : 0.0;
+    }
+}
+
+// g ← g * V, V the exact order-n projection of the visibility of a circle (u = 1 − cos θ) about
+// `axis` (closed form, sh/zonal.rs circle_visibility). Plane blockers multiply the visibility this
+// way rather than adding a log: the log of a hemisphere-sized circle lies far past the eigenvalue
+// clip (θ = π/2 > θ_clip ≈ 0.85 at n = 4) and its exponential darkens an upward receiver by 7 %
+// (14 % at n = 6), where the projection is exact.
+void shexp_multiply_circle_visibility(inout float g[SHN_C], float u, vec3 axis, bool g_is_one) {
+    float cstar[SH_MAX_ORDER];
+    shexp_cap_star_raw(1.0 - clamp(u, 0.0, 2.0), cstar);
+    float y[SH_MAX_COEFFS];
+    sh_eval(axis, SHEXP_N, y);
+    float v[SHN_C];
+    for (int l = 0; l < SHEXP_N; ++l) {
+        float vstar = (l == 0 ? 4.0 * PI : 0.0) - cstar[l];
+        for (int i = l * l; i < (l + 1) * (l + 1); ++i) v[i] = vstar * y[i];
+    }
+    if (g_is_one) {
+        g = v;
+    } else {
+        float t[SHN_C];
+        shn_product(g, v, t);
+        g = t;
+    }
+}
+
+// Plane blockers multiply g (see shexp_multiply_circle_visibility): a half-space the visibility of
+// the half-space (u = 1 about −m, exact), a rectangle that of a circle of its exact solid angle Ω
+// (u = Ω/2π) about its cone's mean direction. Returns how many blocked.
+uint shexp_planes(vec3 p, inout float g[SHN_C], bool g_is_one) {
+    uint count = 0u;
     for (uint i = 0u; i < plane_count; ++i) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, p)) continue;
         if (!plane_is_rectangle(pl)) {
-            shn_add_circle_log(g_log, 1.0, -pl.plane.xyz);
+            shexp_multiply_circle_visibility(g, 1.0, -pl.plane.xyz, g_is_one && count == 0u);
         } else {
             vec3 c = pl.center.xyz - p;
             vec3 a0 = c - pl.half_u.xyz - pl.half_v.xyz;
@@ -115,32 +170,38 @@ void shexp_planes(vec3 p) {
             }
             if (dot(mean, c) < 0.0) mean = -mean;
             if (!(dot(mean, mean) > 0.0)) mean = c;
-            shn_add_circle_log(g_log, clamp(omega / (2.0 * PI), 0.0, 1.0), mean);
+            shexp_multiply_circle_visibility(g, clamp(omega / (2.0 * PI), 0.0, 1.0), mean, g_is_one && count == 0u);
         }
-        g_blockers += 1u;
+        count += 1u;
     }
+    return count;
 }
 
-// The visibility vector g at p (1 when nothing blocks).
+// The visibility vector g at p (1 when nothing blocks); g_blockers counts spheres and planes.
 void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
     for (int i = 0; i < SHN_C; ++i) g_log[i] = 0.0;
     g_p = p;
     g_n = n;
     g_blockers = 0u;
+    g_large_count = 0u;
     if (shx.sphere_count > 0u) bvh_cut(shx.sphere_count, vec4(p, 0.0), shx.sin_theta_max, p, n, 0.5 * PI);
-    shexp_planes(p);
     for (int i = 0; i < SHN_C; ++i) g[i] = 0.0;
-    if (g_blockers == 0u) {
+    bool one = g_blockers == 0u;
+    if (one) {
         g[0] = SHN_SQRT_4PI;
-        return;
-    }
-    if (shx.exp_method == 1u) {
+    } else if (shx.exp_method == 1u) {
         shn_exp_ol(g_log, g);
     } else if (shx.exp_method == 2u) {
         shn_exp_ps_star(g_log, shx.ps_degree, g);
     } else {
         shn_exp_hyb(g_log, shx.hyb_target, g);
     }
+    for (uint k = 0u; k < g_large_count; ++k) {
+        shexp_multiply_circle_visibility(g, g_large[k].w, g_large[k].xyz, one && k == 0u);
+    }
+    one = one && g_large_count == 0u;
+    g_blockers += g_large_count;
+    g_blockers += shexp_planes(p, g, one);
     // A log so large that the squarings overflowed is deep occlusion: no visibility (no NaN/inf).
     bool bad = false;
     for (int i = 0; i < SHN_C; ++i) bad = bad || isnan(g[i]) || isinf(g[i]);
@@ -153,19 +214,11 @@ float shexp_h_star(int l) {
     return shx.h_star[l >> 2][l & 3];
 }
 
-// The scaled zonal coefficients c*_l = 2π ∫_{cos α}^1 P_l of the cap of half-angle α (the whole
-// sphere when `outside` is false), times the window.
+// The windowed scaled zonal coefficients of a light's cap of half-angle α (the whole sphere when
+// `outside` is false).
 void shexp_cap_star(bool outside, float cos_alpha, out float cstar[SH_MAX_ORDER]) {
-    float c = outside ? cos_alpha : -1.0;
-    // Legendre P_0..P_n at c by the three-term recurrence.
-    float p[SH_MAX_ORDER + 1];
-    p[0] = 1.0;
-    p[1] = c;
-    for (int l = 1; l < SH_MAX_ORDER; ++l) p[l + 1] = (float(2 * l + 1) * c * p[l] - float(l) * p[l - 1]) / float(l + 1);
-    for (int l = 0; l < SH_MAX_ORDER; ++l) {
-        float integral = l == 0 ? 1.0 - c : (p[l - 1] - p[l + 1]) / float(2 * l + 1);
-        cstar[l] = l < SHEXP_N ? 2.0 * PI * integral * shx.window[l >> 2][l & 3] : 0.0;
-    }
+    shexp_cap_star_raw(outside ? cos_alpha : -1.0, cstar);
+    for (int l = 0; l < SHEXP_N; ++l) cstar[l] *= shx.window[l >> 2][l & 3];
 }
 
 vec3 shade_point(ShadePoint sp) {

@@ -7,7 +7,10 @@ use super::{ExpChoice, ShexpOptions};
 use engine_blockers::geom::{blocker_for_receiver, Sphere};
 use engine_blockers::plane::BlockerPlane;
 use engine_math::envmap::LatLongMap;
-use engine_math::sh::{irradiance_weighting, project_latlong, zh_rotate_star_into, CircleLogTable, ShTensor, SQRT_4PI};
+use engine_math::sh::{
+    circle_visibility, irradiance_weighting, project_latlong, theta_of_u, zh_rotate_star_into, CircleLogTable,
+    ShTensor, SQRT_4PI,
+};
 use engine_math::shexp::{exp_hyb, exp_ol, exp_ps_star, OlTable};
 use engine_math::table_gen::MathTable;
 use engine_math::tables::Table;
@@ -22,7 +25,12 @@ pub struct Twin {
     pub circles: CircleLogTable,
     /// The windowed order-n projection of the environment, per RGB channel.
     pub env: [Vec<f64>; 3],
+    /// `large=product`'s threshold in u (as the GPU's, in f32).
+    pub large_u: f64,
 }
+
+/// At most this many large spheres multiply per receiver (SHEXP_MAX_LARGE in shade.glsl).
+pub const MAX_LARGE: usize = 4;
 
 fn read(t: MathTable) -> Result<Table, String> {
     let path = crate::tables::default_dir().join(format!("{}.bin", t.name()));
@@ -66,6 +74,7 @@ impl Twin {
             ol,
             circles,
             env: project_latlong(env, n, options.window()),
+            large_u: super::large_u(options) as f32 as f64,
         })
     }
 
@@ -76,11 +85,13 @@ impl Twin {
         f.iter_mut().zip(&v).for_each(|(a, b)| *a += b);
     }
 
-    /// Σ of the blockers' log vectors at receiver `p` with unit normal `n`, and how many blocked.
-    pub fn log_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> (Vec<f64>, usize) {
+    /// Σ of the sphere blockers' log vectors at receiver `p` with unit normal `n`, how many, and the
+    /// large spheres (u, axis) that multiply instead (`large=product`, in visit order).
+    pub fn log_visibility_split(&self, p: DVec3, n: DVec3, spheres: &[Sphere]) -> (Vec<f64>, usize, Vec<(f64, DVec3)>) {
         let c = self.options.order * self.options.order;
         let mut f = vec![0.0; c];
         let mut count = 0;
+        let mut large = Vec::new();
         for s in spheres {
             let Some(b) = blocker_for_receiver(p, n, s) else { continue };
             let d = b.center.distance(p);
@@ -93,25 +104,37 @@ impl Twin {
                 let s = b.radius / d;
                 s * s / (1.0 + (1.0 - s * s).max(0.0).sqrt())
             };
+            if u > self.large_u && large.len() < MAX_LARGE {
+                large.push((u, b.center - p));
+                continue;
+            }
             self.add_circle(&mut f, u, b.center - p);
             count += 1;
         }
-        for pl in planes {
-            if !pl.blocks_receiver(p) {
-                continue;
-            }
-            match pl.corners() {
-                None => self.add_circle(&mut f, 1.0, -pl.normal),
+        (f, count, large)
+    }
+
+    /// [`Self::log_visibility_split`] without the large spheres.
+    pub fn log_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere]) -> (Vec<f64>, usize) {
+        let (f, count, _) = self.log_visibility_split(p, n, spheres);
+        (f, count)
+    }
+
+    /// The plane blockers' visibility factors at `p`: (u, axis) of the circle each multiplies by.
+    pub fn plane_circles(&self, p: DVec3, planes: &[BlockerPlane]) -> Vec<(f64, DVec3)> {
+        planes
+            .iter()
+            .filter(|pl| pl.blocks_receiver(p))
+            .map(|pl| match pl.corners() {
+                None => (1.0, -pl.normal),
                 Some(k) => {
                     let a = k.map(|x| x - p);
                     let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
                     let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
-                    self.add_circle(&mut f, (omega / (2.0 * PI)).clamp(0.0, 1.0), cone_mean_direction(&a, centre));
+                    ((omega / (2.0 * PI)).clamp(0.0, 1.0), cone_mean_direction(&a, centre))
                 }
-            }
-            count += 1;
-        }
-        (f, count)
+            })
+            .collect()
     }
 
     /// `exp*` of a log vector by the configured method; non-finite results are no visibility.
@@ -129,15 +152,26 @@ impl Twin {
         }
     }
 
-    /// The visibility vector at `p` (exactly 1 without blockers, as the shader).
+    /// The visibility vector at `p` (exactly 1 without blockers, as the shader): the exponential of the
+    /// spheres' summed log, times the exact projection of each plane's circle visibility.
     pub fn visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> (Vec<f64>, usize) {
-        let (f, count) = self.log_visibility(p, n, spheres, planes);
-        if count == 0 {
+        let (f, mut count, large) = self.log_visibility_split(p, n, spheres);
+        let mut g = if count == 0 {
             let mut g = vec![0.0; f.len()];
             g[0] = SQRT_4PI;
-            return (g, 0);
+            g
+        } else {
+            self.exp(&f)
+        };
+        for (u, axis) in large.into_iter().chain(self.plane_circles(p, planes)) {
+            let v = circle_visibility(self.options.order, theta_of_u(u), axis.to_array());
+            g = if count == 0 { v } else { self.tensor.product(&g, &v) };
+            count += 1;
         }
-        (self.exp(&f), count)
+        if !g.iter().all(|v| v.is_finite()) {
+            g.iter_mut().for_each(|v| *v = 0.0);
+        }
+        (g, count)
     }
 
     /// Diffuse radiance `ρ max(L·(H(N) * g), 0)` (`diffuse=sh`) and the unshadowed `L·H(N)` per channel.

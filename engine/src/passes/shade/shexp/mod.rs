@@ -5,9 +5,10 @@
 //! §6.2 rules (`blocker_for_receiver`: spheres behind the tangent plane culled, straddling ones
 //! shrunk, receivers inside handled), each blocker's circle log-visibility from the order-n table
 //! (`sh{n}_circle_log`, exact small-angle limit, knots at the clip's kinks) rotated to its direction
-//! (Eq. 34), summed, exponentiated by HYB (default), OL or PS*-p (Sec. 4). Plane blockers: a
-//! half-space is the exact zonal log of the half-space; a rectangle is approximated by a circle of
-//! the same solid angle about its cone's mean direction (Arvo's ½ Σ Θ_e n_e).
+//! (Eq. 34), summed, exponentiated by HYB (default), OL or PS*-p (Sec. 4). Plane blockers multiply
+//! the visibility by the exact order-n projection of their visibility (not a log: the clipped log of
+//! a hemisphere-sized circle darkens an upward receiver by 7 % at n = 4): a half-space exactly, a
+//! rectangle as a circle of the same solid angle about its cone's mean direction (Arvo's ½ Σ Θ_e n_e).
 //!
 //! Shading: diffuse `ρ L·(H(N) * g)` with L the environment's order-n projection windowed by
 //! cos(π/2 · l/h) (§7), H(N) the clamped cosine rotated to N (a ZH rotation per receiver, no table);
@@ -79,6 +80,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("sh"),
         help: "diffuse: sh (ρ L·(H*g), the paper) or ratio (exact E(n) times the SH visibility ratio)",
     },
+    OptionSpec {
+        key: "large",
+        aliases: &[],
+        kind: Kind::Choice(&["product", "log"]),
+        default: Some("product"),
+        help: "spheres past the log's eigenvalue clip (θ > θ_clip): product (ours: multiply g by their exact projected visibility, ≤ 4 per receiver) or log (the paper: add their clipped log)",
+    },
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
@@ -95,7 +103,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
         furnace: 1e-3,
         unoccluded_vs_none: 5e-3,
         one_sphere: Some(0.01),
-        one_plane: Some(0.08),
+        one_plane: Some(0.005),
         samples: 0,
     },
     create: |gpu, o| Ok(Box::new(Shexp::new(gpu, ShexpOptions::from_options(o))?)),
@@ -121,6 +129,9 @@ pub struct ShexpOptions {
     pub window_h: Option<f64>,
     /// `diffuse=ratio`.
     pub ratio: bool,
+    /// `large=product`: spheres subtending more than the clip's first kink multiply g by their
+    /// projected visibility (at most 4 per receiver) instead of adding their clipped log.
+    pub large_product: bool,
 }
 
 impl Default for ShexpOptions {
@@ -133,6 +144,7 @@ impl Default for ShexpOptions {
             hyb_target: HYB_DEFAULT_TARGET,
             window_h: None,
             ratio: false,
+            large_product: true,
         }
     }
 }
@@ -151,6 +163,7 @@ impl ShexpOptions {
             hyb_target: o.float("target"),
             window_h: o.float_if_given("h"),
             ratio: o.choice("diffuse") == "ratio",
+            large_product: o.choice("large") == "product",
         }
     }
 
@@ -174,6 +187,9 @@ pub struct GpuShexpParams {
     pub gamma_count: u32,
     /// 0 sh, 1 ratio.
     pub diffuse_mode: u32,
+    /// `u = 1 − cos θ` above which a sphere multiplies its projected visibility (`large=product`; 2: never).
+    pub large_u: f32,
+    pub pad: [u32; 3],
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -201,6 +217,16 @@ pub fn environment_sh(env: &engine_math::envmap::LatLongMap, o: &ShexpOptions) -
     (0..o.order * o.order).map(|i| [r[i] as f32, g[i] as f32, b[i] as f32, 0.0]).collect()
 }
 
+/// `u = 1 − cos θ_clip` (the first kink of the eigenvalue clip) for `large=product`, 2 (never) for
+/// `large=log` or an order without a kink up to π/2.
+pub fn large_u(o: &ShexpOptions) -> f64 {
+    if !o.large_product {
+        return 2.0;
+    }
+    let t = engine_math::sh::ShTensor::new(o.order);
+    engine_math::sh::circle_clip_kinks(&t).first().map(|&k| engine_math::sh::one_minus_cos(k)).unwrap_or(2.0)
+}
+
 /// The parameter block for `o`, with the OL table's range and the Γ table's size from their headers.
 pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count: u32) -> GpuShexpParams {
     let mut h_star = [0f32; 8];
@@ -224,6 +250,8 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         ol_norm_max: ol_norm_max as f32,
         gamma_count,
         diffuse_mode: o.ratio as u32,
+        large_u: large_u(o) as f32,
+        pad: [0; 3],
         h_star,
         window,
     }
