@@ -96,9 +96,9 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     reads: Reads { lights: true, blockers: true, thin: false, geometry: false },
     // Measured by tests/tests/techniques.rs at the defaults (order 4, HYB): furnace 4.65e-4 (the f32
     // projection of a constant map), no blockers vs `none` 2.89e-3 (the windowed order-4 lighting on
-    // the sphere scene's smooth sky), one sphere 0.378 %, the ball above a half-space 6.91 % and above
-    // a rectangle 6.84 % (an order-4 log of a hemisphere step; the rectangle as a circle of equal
-    // solid angle). Bounds: the measurement with margin.
+    // the sphere scene's smooth sky), one sphere 0.378 %, the ball above a half-space 0.023 % and above
+    // a rectangle 0.058 % (plane visibility multiplied as its exact projection). Bounds: the
+    // measurement with margin.
     tolerances: Tolerances {
         furnace: 1e-3,
         unoccluded_vs_none: 5e-3,
