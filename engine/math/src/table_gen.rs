@@ -7,7 +7,7 @@
 //! | `lobe_product` | [`lobes::product_table`] | 97 e1 × 97 e2 × 49 α, (ln p_r/peak, e_r) |
 //! | `lobe_hemisphere` | [`lobes::hemisphere_table`] | 769 e × 129 y, (f_h, f_b) |
 //! | `lobe_cap` | [`lobes::cap_table`] | 1000 α, k = e_cap α² |
-//! | `shN_circle_log` | [`CircleLogTable::new`] | 256 θ × N, f*_l(θ) |
+//! | `shN_circle_log` | [`CircleLogTable::new`] | 12 segments × 64 u = 1 − cos θ, (f*_l(θ)/u, u) |
 //! | `shN_ol` | [`OlTable::new`] resampled | [`OL_SAMPLES`] ‖f̂‖, (a, b) |
 //! | `shN_gamma` | [`ShTensor::new`] | entries, (packed i j k, Γ) |
 //!
@@ -19,7 +19,7 @@ use crate::isg::{
     isg_lut_marginals, isg_lut_slice_lambda, IsgLut, ISG_LUT_N, ISG_LUT_OCTAVE0, ISG_LUT_OCTAVES, ISG_LUT_PER_OCTAVE,
 };
 use crate::lobes::{self, exponent_samples};
-use crate::sh::{circle_log_zonal, zonal_star, CircleLogTable, ShTensor, CIRCLE_TABLE_SAMPLES};
+use crate::sh::{CircleLogTable, ShTensor, CIRCLE_TABLE_SEGMENTS, CIRCLE_TABLE_SEGMENT_SAMPLES};
 use crate::shexp::OlTable;
 use crate::tables::{Axis, Component, Table, TableHeader};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -80,6 +80,9 @@ impl MathTable {
         match self {
             // 2: the separable table of Ŝ's marginals (was 1: Ŝ on a 16 × 16 sigmoid-warped grid).
             MathTable::IsgLut => 2,
+            // 2: f*_l/(1 − cos θ) in segments of u = 1 − cos θ split at the clip's kinks (was 1:
+            // f*_l linear in θ, 256 samples: small blockers too large, the kink smoothed over).
+            MathTable::ShCircleLog(_) => 2,
             _ => 1,
         }
     }
@@ -103,7 +106,14 @@ impl MathTable {
             }
             MathTable::ShCircleLog(n) => {
                 let t = CircleLogTable::new(&ShTensor::new(n));
-                let flat: Vec<f32> = t.fstar.iter().map(|&v| v as f32).collect();
+                let mut flat = Vec::with_capacity(t.ratio.len() / n * (n + 1));
+                for seg in 0..CIRCLE_TABLE_SEGMENTS {
+                    for i in 0..CIRCLE_TABLE_SEGMENT_SAMPLES {
+                        let k = seg * CIRCLE_TABLE_SEGMENT_SAMPLES + i;
+                        flat.extend(t.ratio[k * n..(k + 1) * n].iter().map(|&v| v as f32));
+                        flat.push(CircleLogTable::u_of(&t.knots, seg, i) as f32);
+                    }
+                }
                 Table::from_f32(circle_header(n), &flat)
             }
             MathTable::ShOl(n) => ol_table(n),
@@ -194,16 +204,24 @@ fn circle_header(n: usize) -> TableHeader {
     TableHeader {
         name: MathTable::ShCircleLog(n).name(),
         generator_version: MathTable::ShCircleLog(n).generator_version(),
-        axes: vec![Axis::uniform(
-            "theta: angular radius of the circular blocker [rad]",
-            CIRCLE_TABLE_SAMPLES,
-            0.0,
-            FRAC_PI_2,
-        )],
-        components: f32s(n),
+        axes: vec![
+            Axis::index(
+                "segment of u = 1 - cos(theta) in [0, 1], its knots at the eigenvalue clip's kinks and greedy splits",
+                CIRCLE_TABLE_SEGMENTS,
+            ),
+            Axis::uniform(
+                "t: position in the segment, u = u0 + t (u1 - u0) (u0, u1: the u of the segment's first and last entry)",
+                CIRCLE_TABLE_SEGMENT_SAMPLES,
+                0.0,
+                1.0,
+            ),
+        ],
+        components: f32s(n + 1),
         description: format!(
-            "Scaled zonal log-visibility f*_l(theta), l = 0..{}, of a circular blocker about +z (eigen method, \
-             sh::CircleLogTable, order {n}); rotate with f_lm = f*_l y_lm(axis).",
+            "Scaled zonal log-visibility of a circular blocker about +z divided by u = 1 - cos(theta): \
+             [f*_l(theta)/u for l = 0..{}, u] (eigen method, sh::CircleLogTable, order {n}); the u = 0 entry is the \
+             exact limit -2 pi. Lookup: the segment whose [u0, u1] holds u, f*_l = u (linear interpolation in t), \
+             rotate with f_lm = f*_l y_lm(axis).",
             n - 1
         ),
     }
@@ -327,6 +345,7 @@ enum Ctx {
     },
     Circle {
         tensor: ShTensor,
+        knots: Vec<f64>,
     },
     /// Small tables whose entries all depend on one fit: regenerated whole.
     Whole(Table),
@@ -350,7 +369,9 @@ impl Regenerator {
             }
             MathTable::LobeCap => Self::cap(lobes::CAP_SAMPLES),
             MathTable::ShCircleLog(n) => {
-                Self { header: circle_header(n), ctx: Ctx::Circle { tensor: ShTensor::new(n) } }
+                let tensor = ShTensor::new(n);
+                let knots = CircleLogTable::knots(&tensor);
+                Self { header: circle_header(n), ctx: Ctx::Circle { tensor, knots } }
             }
             MathTable::ShOl(n) => Self::whole(ol_table(n)),
             MathTable::ShGamma(n) => Self::whole(gamma_table(&ShTensor::new(n))),
@@ -419,9 +440,11 @@ impl Regenerator {
                 let k = if i == 0 { lobes::cap_small_angle_limit() } else { lobes::cap_exponent(a) * a * a };
                 f(&[k as f32])
             }
-            Ctx::Circle { tensor } => {
-                let z = zonal_star(&circle_log_zonal(tensor, CircleLogTable::theta_of(idx[0])));
-                f(&z.iter().map(|&v| v as f32).collect::<Vec<_>>())
+            Ctx::Circle { tensor, knots } => {
+                let u = CircleLogTable::u_of(knots, idx[0], idx[1]);
+                let mut z: Vec<f32> = CircleLogTable::entry(tensor, u).iter().map(|&v| v as f32).collect();
+                z.push(u as f32);
+                f(&z)
             }
             Ctx::Whole(t) => t.entry(linear).to_vec(),
         }
@@ -581,7 +604,7 @@ mod tests {
         let idx: Vec<usize> = (0..t.header.entry_count() as usize).collect();
         assert_eq!(r.check(&t, &idx), Ok(0.0));
         // A change of 1e-3 in one value is drift.
-        let k = 3 * 100 + 1;
+        let k = 4 * 100 + 1;
         t.words[k] = (f32::from_bits(t.words[k]) + 1e-3).to_bits();
         let e = r.check(&t, &idx).unwrap_err();
         assert!(e.contains("entry 100") && e.contains("drifted"), "{e}");

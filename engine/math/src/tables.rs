@@ -31,7 +31,7 @@ pub const MAGIC: [u8; 8] = *b"ENGTABLE";
 /// The version of this layout. A reader accepts only this version.
 pub const FORMAT_VERSION: u32 = 1;
 pub const MAX_RANK: usize = 4;
-pub const MAX_COMPONENTS: usize = 8;
+pub const MAX_COMPONENTS: usize = 16;
 /// Longest accepted header (a corrupt header-size field must not make the reader allocate gigabytes).
 pub const MAX_HEADER_BYTES: usize = 1 << 16;
 const FIXED_HEADER: usize = 64;

@@ -51,6 +51,12 @@ pub fn log_eigen(tensor: &ShTensor, g: &[f64]) -> Vec<f64> {
 /// uses the largest eigenvalue over all blocks, and the log needs only the `m = 0` block
 /// (the constant 1 lives there). Equal to [`log_eigen`] of the rotated full vector.
 pub fn circle_log_zonal(tensor: &ShTensor, theta: f64) -> Vec<f64> {
+    circle_log_zonal_clipped(tensor, theta).0
+}
+
+/// [`circle_log_zonal`] and the number of `m = 0` eigenvalues the clip of Eq. 32 raised: where that
+/// count changes, `f(θ)` has a kink (the slope jumps), which a table must not interpolate across.
+pub fn circle_log_zonal_clipped(tensor: &ShTensor, theta: f64) -> (Vec<f64>, usize) {
     let n = tensor.n;
     let c = tensor.len();
     let gz = circle_visibility_zonal(n, theta);
@@ -79,50 +85,177 @@ pub fn circle_log_zonal(tensor: &ShTensor, theta: f64) -> Vec<f64> {
     }
     let eps = (LOG_CLIP_RELATIVE * max_eig).max(LOG_CLIP_ABSOLUTE);
     let (vals, vecs) = block0;
+    let clipped = vals.iter().filter(|&&v| v < eps).count();
     let mut gm1 = gz.clone();
     gm1[0] -= SQRT_4PI;
-    spectral_apply(&vals, &vecs, &gm1, |lam| q_prime(lam.max(eps)))
+    (spectral_apply(&vals, &vecs, &gm1, |lam| q_prime(lam.max(eps))), clipped)
 }
 
-/// Number of θ samples of the circle log table (paper Sec. 8: "256 samples in θ").
-pub const CIRCLE_TABLE_SAMPLES: usize = 256;
+/// Every `θ ∈ (0, π/2)` at which the number of eigenvalues the clip of Eq. 32 raises changes (the
+/// kinks of `f(θ)`; the first at ≈ 1.13, 0.85, 0.68, 0.57, 0.49, 0.43 rad for n = 3..8, and more at
+/// n ≥ 6), each by bisection to f64 precision after a scan of 2048 steps.
+pub fn circle_clip_kinks(tensor: &ShTensor) -> Vec<f64> {
+    let count = |t: f64| circle_log_zonal_clipped(tensor, t).1;
+    let steps = 2048;
+    let mut kinks = Vec::new();
+    let (mut lo, mut c_lo) = (0.0, count(0.0));
+    for s in 1..steps {
+        let t = 0.5 * PI * s as f64 / steps as f64;
+        let c = count(t);
+        if c != c_lo {
+            let mut hi = t;
+            let mut l = lo;
+            for _ in 0..80 {
+                let mid = 0.5 * (l + hi);
+                if count(mid) == c_lo {
+                    l = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            kinks.push(hi);
+        }
+        lo = t;
+        c_lo = c;
+    }
+    kinks
+}
 
-/// Tabulated scaled log-visibility `f*_l(θ)` of circles, `θ ∈ [0, π/2]` in
-/// [`CIRCLE_TABLE_SAMPLES`] uniform samples, linearly interpolated (paper Sec. 6.1, 8).
+/// Segments of the circle log table (knots at every kink, then the segment with the largest
+/// interpolation error split in two until there are this many).
+pub const CIRCLE_TABLE_SEGMENTS: usize = 12;
+/// Samples per segment, both ends included (12 × 64 = 768 entries).
+pub const CIRCLE_TABLE_SEGMENT_SAMPLES: usize = 64;
+
+/// The exact small-angle limit of `f*_l(θ)/(1 − cos θ)`, the same for every `l`: a tiny blocker's
+/// visibility is `1 − Ω δ_axis` with `Ω = 2π (1 − cos θ)`, whose log is `−Ω δ_axis + O(Ω²)`, and
+/// `δ_axis` has scaled zonal coefficients `y*_l = 1`.
+pub const CIRCLE_SMALL_ANGLE_RATIO: f64 = -2.0 * PI;
+
+/// `u = 1 − cos θ` without cancellation: `2 sin²(θ/2)`.
+pub fn one_minus_cos(theta: f64) -> f64 {
+    let s = (0.5 * theta).sin();
+    2.0 * s * s
+}
+
+/// θ of `u = 1 − cos θ`, without the cancellation of `acos(1 − u)` near 0.
+pub fn theta_of_u(u: f64) -> f64 {
+    2.0 * (0.5 * u.clamp(0.0, 2.0)).sqrt().asin()
+}
+
+/// Tabulated scaled log-visibility `f*_l(θ)` of circles for `θ ∈ [0, π/2]` (paper Sec. 6.1, 8),
+/// stored so that small blockers and the clip's kinks are exact:
+/// - the stored value is the ratio `r_l(u) = f*_l(θ) / u` with `u = 1 − cos θ` (∝ θ²/2), sampled
+///   uniformly in `u` within each segment; `r_l` is smooth and tends to
+///   [`CIRCLE_SMALL_ANGLE_RATIO`] as `u → 0`, so `u · r_l(u)` is exact to first order for any tiny
+///   blocker (linear interpolation in θ of `f*` itself gave a log growing like θ instead of θ²
+///   below the first sample: ×61.6 too large at θ = 1e-4 at order 4);
+/// - [`CIRCLE_TABLE_SEGMENTS`] segments of `u ∈ [0, 1]` whose knots include every kink of the clip
+///   ([`circle_clip_kinks`]), so no interpolation straddles a kink; the remaining knots split the
+///   worst-interpolated segment (the log of an eigenvalue approaching the clip curves sharply).
+///
 /// A sphere seen from outside subtends `θ = asin(r/d) ≤ π/2`; a receiver inside a sphere is the
 /// caller's case (SHEXP Sec. 6.2 rules remove or shrink such spheres); here `θ` is clamped to
 /// `[0, π/2]`, i.e. treated as the half-space blocker.
 #[derive(Clone, Debug)]
 pub struct CircleLogTable {
     pub n: usize,
-    /// `fstar[s * n + l]` = `f*_l(θ_s)`, `θ_s = s · (π/2) / (samples − 1)`.
-    pub fstar: Vec<f64>,
+    /// Segment bounds in `u`: `knots[0] = 0 < … < knots[SEGMENTS] = 1`.
+    pub knots: Vec<f64>,
+    /// `ratio[(seg * S + i) * n + l]` = `r_l(u)` at `u` = [`Self::u_of`]`(&knots, seg, i)`.
+    pub ratio: Vec<f64>,
 }
 
 impl CircleLogTable {
     pub fn new(tensor: &ShTensor) -> Self {
         let n = tensor.n;
-        let mut fstar = Vec::with_capacity(CIRCLE_TABLE_SAMPLES * n);
-        for s in 0..CIRCLE_TABLE_SAMPLES {
-            let theta = Self::theta_of(s);
-            fstar.extend(zonal_star(&circle_log_zonal(tensor, theta)));
+        let knots = Self::knots(tensor);
+        let mut ratio = Vec::with_capacity(CIRCLE_TABLE_SEGMENTS * CIRCLE_TABLE_SEGMENT_SAMPLES * n);
+        for seg in 0..CIRCLE_TABLE_SEGMENTS {
+            for i in 0..CIRCLE_TABLE_SEGMENT_SAMPLES {
+                ratio.extend(Self::entry(tensor, Self::u_of(&knots, seg, i)));
+            }
         }
-        Self { n, fstar }
+        Self { n, knots, ratio }
     }
 
-    /// θ of sample `s`.
-    pub fn theta_of(s: usize) -> f64 {
-        s as f64 * (0.5 * PI) / (CIRCLE_TABLE_SAMPLES - 1) as f64
+    /// The segment bounds: 0, every kink, 1, then greedy splits (at the midpoint in `u`) of the
+    /// segment whose linear interpolation of `f*` errs most at its interval midpoints.
+    pub fn knots(tensor: &ShTensor) -> Vec<f64> {
+        let mut knots = vec![0.0];
+        knots.extend(circle_clip_kinks(tensor).into_iter().map(one_minus_cos));
+        knots.push(1.0);
+        knots.truncate(CIRCLE_TABLE_SEGMENTS);
+        if *knots.last().unwrap_or(&0.0) < 1.0 {
+            knots.push(1.0);
+        }
+        let s = CIRCLE_TABLE_SEGMENT_SAMPLES;
+        let seg_error = |u0: f64, u1: f64| {
+            let at = |i: usize| u0 + (u1 - u0) * i as f64 / (s - 1) as f64;
+            let mut prev = Self::entry(tensor, at(0));
+            let mut worst: f64 = 0.0;
+            for i in 1..s {
+                let next = Self::entry(tensor, at(i));
+                let um = 0.5 * (at(i - 1) + at(i));
+                let want = Self::entry(tensor, um);
+                for l in 0..tensor.n {
+                    worst = worst.max((um * (0.5 * (prev[l] + next[l]) - want[l])).abs());
+                }
+                prev = next;
+            }
+            worst
+        };
+        let mut errors: Vec<f64> = knots.windows(2).map(|w| seg_error(w[0], w[1])).collect();
+        while knots.len() < CIRCLE_TABLE_SEGMENTS + 1 {
+            let k = (0..errors.len()).fold(0, |b, i| if errors[i] > errors[b] { i } else { b });
+            let mid = 0.5 * (knots[k] + knots[k + 1]);
+            knots.insert(k + 1, mid);
+            errors.splice(k..k + 1, [seg_error(knots[k], mid), seg_error(mid, knots[k + 2])]);
+        }
+        knots
+    }
+
+    /// One entry from the mathematics: `f*_l(θ(u)) / u`, or the exact limit at `u = 0`.
+    pub fn entry(tensor: &ShTensor, u: f64) -> Vec<f64> {
+        if u <= 0.0 {
+            return vec![CIRCLE_SMALL_ANGLE_RATIO; tensor.n];
+        }
+        zonal_star(&circle_log_zonal(tensor, theta_of_u(u))).iter().map(|f| f / u).collect()
+    }
+
+    /// `u` of sample `i` of segment `seg` (`[knots[seg], knots[seg + 1]]`, both ends exact).
+    pub fn u_of(knots: &[f64], seg: usize, i: usize) -> f64 {
+        let (u0, u1) = (knots[seg], knots[seg + 1]);
+        if i + 1 == CIRCLE_TABLE_SEGMENT_SAMPLES {
+            u1
+        } else {
+            u0 + (u1 - u0) * i as f64 / (CIRCLE_TABLE_SEGMENT_SAMPLES - 1) as f64
+        }
+    }
+
+    /// Interpolated `f*_l` at `u = 1 − cos θ ∈ [0, 1]` (clamped; NaN → 1, the half-space).
+    pub fn lookup_u(&self, u: f64) -> Vec<f64> {
+        let n = self.n;
+        let s = CIRCLE_TABLE_SEGMENT_SAMPLES;
+        let u = if u.is_finite() { u.clamp(0.0, 1.0) } else { 1.0 };
+        let mut seg = 0;
+        while seg + 1 < CIRCLE_TABLE_SEGMENTS && u >= self.knots[seg + 1] {
+            seg += 1;
+        }
+        let (u0, u1) = (self.knots[seg], self.knots[seg + 1]);
+        let x = ((u - u0) / (u1 - u0)).clamp(0.0, 1.0) * (s - 1) as f64;
+        let i0 = (x.floor() as usize).min(s - 2);
+        let w = x - i0 as f64;
+        let base = seg * s;
+        (0..n)
+            .map(|l| u * (self.ratio[(base + i0) * n + l] * (1.0 - w) + self.ratio[(base + i0 + 1) * n + l] * w))
+            .collect()
     }
 
     /// Interpolated `f*_l(θ)`.
     pub fn lookup(&self, theta: f64) -> Vec<f64> {
-        let n = self.n;
         let t = if theta.is_finite() { theta.clamp(0.0, 0.5 * PI) } else { 0.5 * PI };
-        let x = t / (0.5 * PI) * (CIRCLE_TABLE_SAMPLES - 1) as f64;
-        let s0 = (x.floor() as usize).min(CIRCLE_TABLE_SAMPLES - 2);
-        let w = x - s0 as f64;
-        (0..n).map(|l| self.fstar[s0 * n + l] * (1.0 - w) + self.fstar[(s0 + 1) * n + l] * w).collect()
+        self.lookup_u(one_minus_cos(t))
     }
 
     /// Log-visibility vector of a circle of angular radius `θ` about `axis` (paper Eq. 34).
@@ -133,16 +266,24 @@ impl CircleLogTable {
     }
 
     /// Log-visibility of a sphere blocker (center `p`, radius `r`) seen from receiver `x`
-    /// (paper Eq. 34): `θ = asin(r/‖P−x‖)`, axis `(P−x)/‖P−x‖`. A receiver inside the sphere
-    /// (or on it) gets the half-space blocker `θ = π/2`; a zero radius gives zero.
+    /// (paper Eq. 34): `sin θ = r/‖P−x‖`, axis `(P−x)/‖P−x‖`, `u = 1 − cos θ = s²/(1 + √(1 − s²))`
+    /// with `s = sin θ` (no cancellation). A receiver inside the sphere (or on it) gets the
+    /// half-space blocker `θ = π/2`; a zero radius gives zero.
     pub fn sphere_log_visibility(&self, x: [f64; 3], p: [f64; 3], r: f64) -> Vec<f64> {
         let d = [p[0] - x[0], p[1] - x[1], p[2] - x[2]];
         let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if r <= 0.0 || !r.is_finite() {
             return vec![0.0; self.n * self.n];
         }
-        let theta = if dist <= r { 0.5 * PI } else { (r / dist).asin() };
-        self.log_visibility(theta, d)
+        let u = if dist <= r {
+            1.0
+        } else {
+            let s = r / dist;
+            s * s / (1.0 + (1.0 - s * s).max(0.0).sqrt())
+        };
+        let mut out = vec![0.0; self.n * self.n];
+        zh_rotate_star_into(&self.lookup_u(u), d, &mut out);
+        out
     }
 }
 
@@ -185,21 +326,53 @@ mod tests {
     fn circle_log_table_interpolates() {
         let t = ShTensor::new(3);
         let table = CircleLogTable::new(&t);
-        // Midway between samples: linear interpolation error ≤ h²/8 · |f''|, h = π/510.
-        let h = CircleLogTable::theta_of(1);
-        for s in [3, 100, 200] {
-            let theta = CircleLogTable::theta_of(s) + 0.5 * h;
-            let got = table.lookup(theta);
-            let want = zonal_star(&circle_log_zonal(&t, theta));
-            for l in 0..3 {
-                assert!((got[l] - want[l]).abs() < 1e-3 * (1.0 + want[l].abs()), "s={s} l={l}");
-            }
-        }
         // Receiver inside the sphere → half-space; zero radius → no blocking.
         let inside = table.sphere_log_visibility([0.0; 3], [0.1, 0.0, 0.0], 1.0);
         let half = table.log_visibility(0.5 * PI, [1.0, 0.0, 0.0]);
-        assert_eq!(inside, half);
+        for (a, b) in inside.iter().zip(&half) {
+            assert!((a - b).abs() < 1e-12);
+        }
         assert!(table.sphere_log_visibility([0.0; 3], [1.0, 0.0, 0.0], 0.0).iter().all(|v| *v == 0.0));
         assert!(table.lookup(f64::NAN).iter().all(|v| v.is_finite()));
+        assert!(table.lookup(0.0).iter().all(|v| *v == 0.0));
+    }
+
+    /// Issue 18's defect: the table against the exact eigen log, relative at small angles (where
+    /// the old θ-linear table was ×61.6 too large at θ = 1e-4) and absolute over the whole range,
+    /// including both sides of the clip's kink.
+    #[test]
+    fn circle_log_table_matches_exact_log() {
+        for n in 2..=8 {
+            let t = ShTensor::new(n);
+            let table = CircleLogTable::new(&t);
+            // Small angles: relative error of every band (the ratio is smooth in u: linear
+            // interpolation error ~ h² r''/8 with h = u_clip/127; measured below 1e-4).
+            for &theta in &[1e-4, 3e-4, 1e-3, 3e-3, 0.01, 0.02, 0.05] {
+                let want = zonal_star(&circle_log_zonal(&t, theta));
+                let got = table.lookup(theta);
+                for l in 0..n {
+                    let rel = (got[l] - want[l]).abs() / want[l].abs();
+                    assert!(rel < 1e-3, "n={n} θ={theta} l={l}: {} vs {} (rel {rel})", got[l], want[l]);
+                }
+            }
+            // Whole range, dense (including midpoints of every sample interval in θ), and right
+            // at the kink: absolute error below the issue's 4.6e-4 agreement with a public
+            // implementation's tables.
+            let tc = circle_clip_kinks(&t);
+            let mut thetas: Vec<f64> = (0..=4000).map(|k| 0.5 * PI * k as f64 / 4000.0).collect();
+            for &k in &tc {
+                thetas.extend([k - 1e-3, k - 1e-6, k, k + 1e-6, k + 1e-3]);
+            }
+            let mut worst: f64 = 0.0;
+            for &theta in &thetas {
+                let want = zonal_star(&circle_log_zonal(&t, theta));
+                let got = table.lookup(theta);
+                for l in 0..n {
+                    worst = worst.max((got[l] - want[l]).abs());
+                }
+            }
+            assert!(worst < 4.6e-4, "n={n}: worst absolute error {worst}");
+            eprintln!("n={n}: kinks {tc:?} worst |Δf*| over [0, π/2] = {worst:.2e}");
+        }
     }
 }

@@ -11,6 +11,7 @@
 pub mod isg;
 pub mod none;
 pub mod reference;
+pub mod shexp;
 
 use crate::gpu::{Binding, Buffer, ComputePipeline, Gpu, GpuError, Image, Recorder, Result};
 use crate::options::{self, OptionSpec, Options};
@@ -18,7 +19,7 @@ use crate::passes::gbuffer::GBuffer;
 use crate::resources::{BlockerResources, EnvironmentResources, Geometry, GpuScene, LightResources, ThinResources};
 
 /// The registry: every technique the engine knows, in the order `--help` and the viewer list them.
-pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, none::ENTRY, reference::ENTRY];
+pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, none::ENTRY, reference::ENTRY, shexp::ENTRY];
 
 /// One registered technique.
 pub struct TechniqueEntry {

@@ -1,0 +1,289 @@
+// Technique `shexp` (engine passes::shade::shexp): soft shadows by SH exponentiation (Ren et al.
+// 2006) at the compile-time order SHEXP_N (default 4; tables from device buffers).
+// Per receiver p with normal n:
+// - blockers: the cut of the sphere BVH by subtended angle θ_max (SHEXP Eq. 36, bvh_cut.glsl), spheres
+//   entirely behind the tangent plane culled, straddling ones shrunk, receivers inside handled
+//   (the §6.2 rules, blocker_for_receiver); a node taken whole blocks as its bounding sphere (no
+//   ratio vectors: the GPU BVH's node spheres are used as they are). Each blocker adds the circle
+//   log f*(u = 1 − cos θ) from the table rotated to its direction (Eq. 34). Plane blockers: a
+//   half-space below p multiplies g by the exact projection of the half-space's visibility
+//   (u = 1 about −m); a rectangle by that of a circle of its exact solid angle about its cone's mean
+//   direction (approximation). Not a log: the clipped log of a hemisphere-sized circle is poor.
+// - g = exp*(Σ f) by HYB (default), OL or PS*-p (common/shexp_n.glsl).
+// - diffuse: ρ (L * H(N)) · g = ρ L · (H(N) * g), L the windowed order-n projection of the environment,
+//   H(N) the clamped cosine (zonal, rotated to n); diffuse=ratio instead scales the exact irradiance
+//   E(n) by (L·(H*g))/(L·H).
+// - spherical lights: each light's exact unshadowed term (../lights.glsl) times its SH visibility
+//   (C·(H*g))/(C·H), C the windowed SH projection of the light's cap (zonal, rotated to its axis).
+// - glossy: the unshadowed prefiltered glossy term (as technique `none`) times the diffuse
+//   visibility ratio (Lum(L)·(H*g))/(Lum(L)·H): SHEXP itself shadows only diffuse.
+// f64 twin: engine::passes::shade::shexp::cpu.
+#include "../common.glsl"
+#include "../prefiltered.glsl"
+#include "../lights.glsl"
+#include "../../common/sh.glsl"
+#ifndef SHEXP_N
+#define SHEXP_N 4
+#endif
+#define BVH_STACK_SIZE 32
+#include "../../common/bvh.glsl"
+
+layout(binding = 8) uniform sampler2D prefiltered_env;
+layout(binding = 9) uniform sampler2D irradiance_map;
+layout(std430, binding = 10) readonly buffer ShGamma { uvec2 sh_gamma[]; };
+layout(std430, binding = 11) readonly buffer ShOl { vec2 sh_ol[]; };
+layout(std430, binding = 12) readonly buffer ShCircle { float sh_circle[]; };
+layout(std430, binding = 13) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+// Twin: engine::passes::shade::shexp::GpuShexpParams.
+struct ShexpParams {
+    uint sphere_count;
+    float sin_theta_max;   // SHEXP Eq. 36 (0: leaves only)
+    uint exp_method;       // 0 hyb, 1 ol, 2 ps*
+    int ps_degree;         // p of PS*-p
+    float hyb_target;      // ‖f̂‖ after HYB's scaling
+    float ol_norm_max;     // the OL table's last ‖f̂‖
+    uint gamma_count;      // entries of the Γ table
+    uint diffuse_mode;     // 0 sh, 1 ratio
+    float large_u;         // u = 1 − cos θ above which a sphere multiplies its visibility (large=product; 2: never)
+    uint pad0;
+    uint pad1;
+    uint pad2;
+    vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
+    vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
+};
+layout(std430, binding = 14) readonly buffer ShexpParamsBuf { ShexpParams shx; };
+// The environment's windowed order-n projection, RGB (w = 0), n² records.
+layout(std430, binding = 15) readonly buffer EnvSh { vec4 env_sh[]; };
+#include "../../common/planes.glsl"
+layout(std430, binding = 21) readonly buffer BlockerPlanes {
+    uint plane_count;
+    BlockerPlane blocker_planes[];  // at least one record (zero when plane_count = 0)
+};
+
+#define SHN_GAMMA(e) sh_gamma[e]
+#define SHN_GAMMA_COUNT shx.gamma_count
+#define SHN_OL(k) sh_ol[k]
+#define SHN_OL_COUNT 256
+#define SHN_OL_NORM_MAX shx.ol_norm_max
+#define SHN_CIRCLE_SEGMENTS 12
+#define SHN_CIRCLE_SAMPLES 64
+#define SHN_CIRCLE(e, c) sh_circle[(e) * (SHEXP_N + 1) + (c)]
+#include "../../common/shexp_n.glsl"
+
+// The cut's visitor adds into these (bvh_cut.glsl calls BVH_CUT_VISIT from its loop).
+float g_log[SHN_C];
+vec3 g_p;
+vec3 g_n;
+uint g_blockers;
+
+// Spheres subtending more than the clip's first kink (large=product): their visibility multiplies g
+// after the exponential, up to SHEXP_MAX_LARGE of them (the rest go to the log).
+#define SHEXP_MAX_LARGE 4
+vec4 g_large[SHEXP_MAX_LARGE];  // (axis, u)
+uint g_large_count;
+
+void shexp_visit(vec4 s) {
+    vec4 b;
+    if (!blocker_for_receiver(g_p, g_n, s, b)) return;
+    float u = shn_sphere_u(g_p, b);
+    if (!(u > 0.0)) return;
+    if (u > shx.large_u && g_large_count < uint(SHEXP_MAX_LARGE)) {
+        g_large[g_large_count] = vec4(b.xyz - g_p, u);
+        g_large_count += 1u;
+        return;
+    }
+    shn_add_circle_log(g_log, u, b.xyz - g_p);
+    g_blockers += 1u;
+}
+#define BVH_CUT_VISIT(index, s) shexp_visit(s)
+#include "../../common/bvh_cut.glsl"
+
+float shexp_atan_triangle(vec3 a, vec3 b, vec3 c) {
+    float la = length(a), lb = length(b), lc = length(c);
+    float num = abs(dot(a, cross(b, c)));
+    float den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+    return 2.0 * atan(num, den);  // Van Oosterom–Strackee: the triangle's solid angle
+}
+
+// The scaled zonal coefficients c*_l = 2π ∫_c^1 P_l(z) dz of the cap z ≥ c (l < SHEXP_N).
+void shexp_cap_star_raw(float c, out float cstar[SH_MAX_ORDER]) {
+    // Legendre P_0..P_n at c by the three-term recurrence.
+    float p[SH_MAX_ORDER + 1];
+    p[0] = 1.0;
+    p[1] = c;
+    for (int l = 1; l < SH_MAX_ORDER; ++l) p[l + 1] = (float(2 * l + 1) * c * p[l] - float(l) * p[l - 1]) / float(l + 1);
+    for (int l = 0; l < SH_MAX_ORDER; ++l) {
+        float integral = l == 0 ? 1.0 - c : (p[l - 1] - p[l + 1]) / float(2 * l + 1);
+        cstar[l] = l < SHEXP_N ? 2.0 * PI * integral : 0.0;
+    }
+}
+
+// g ← g * V, V the exact order-n projection of the visibility of a circle (u = 1 − cos θ) about
+// `axis` (closed form, sh/zonal.rs circle_visibility). Plane blockers multiply the visibility this
+// way rather than adding a log: the log of a hemisphere-sized circle lies far past the eigenvalue
+// clip (θ = π/2 > θ_clip ≈ 0.85 at n = 4) and its exponential darkens an upward receiver by 7 %
+// (14 % at n = 6), where the projection is exact.
+void shexp_multiply_circle_visibility(inout float g[SHN_C], float u, vec3 axis, bool g_is_one) {
+    float cstar[SH_MAX_ORDER];
+    shexp_cap_star_raw(1.0 - clamp(u, 0.0, 2.0), cstar);
+    float y[SH_MAX_COEFFS];
+    sh_eval(axis, SHEXP_N, y);
+    float v[SHN_C];
+    for (int l = 0; l < SHEXP_N; ++l) {
+        float vstar = (l == 0 ? 4.0 * PI : 0.0) - cstar[l];
+        for (int i = l * l; i < (l + 1) * (l + 1); ++i) v[i] = vstar * y[i];
+    }
+    if (g_is_one) {
+        g = v;
+    } else {
+        float t[SHN_C];
+        shn_product(g, v, t);
+        g = t;
+    }
+}
+
+// Plane blockers multiply g (see shexp_multiply_circle_visibility): a half-space the visibility of
+// the half-space (u = 1 about −m, exact), a rectangle that of a circle of its exact solid angle Ω
+// (u = Ω/2π) about its cone's mean direction. Returns how many blocked.
+uint shexp_planes(vec3 p, inout float g[SHN_C], bool g_is_one) {
+    uint count = 0u;
+    for (uint i = 0u; i < plane_count; ++i) {
+        BlockerPlane pl = blocker_planes[i];
+        if (!plane_blocks_receiver(pl, p)) continue;
+        if (!plane_is_rectangle(pl)) {
+            shexp_multiply_circle_visibility(g, 1.0, -pl.plane.xyz, g_is_one && count == 0u);
+        } else {
+            vec3 c = pl.center.xyz - p;
+            vec3 a0 = c - pl.half_u.xyz - pl.half_v.xyz;
+            vec3 a1 = c + pl.half_u.xyz - pl.half_v.xyz;
+            vec3 a2 = c + pl.half_u.xyz + pl.half_v.xyz;
+            vec3 a3 = c - pl.half_u.xyz + pl.half_v.xyz;
+            float omega = shexp_atan_triangle(a0, a1, a2) + shexp_atan_triangle(a0, a2, a3);
+            // The circle's axis: the mean direction ∫ω dω over the plate's cone, ½ Σ_edges Θ_e n_e
+            // (Arvo 1994), oriented towards the plate (for a wide plate it is −m, as for the half-space).
+            vec3 a[4] = vec3[4](a0, a1, a2, a3);
+            vec3 mean = vec3(0.0);
+            for (int k = 0; k < 4; ++k) {
+                vec3 x = cross(a[k], a[(k + 1) & 3]);
+                float lx = length(x);
+                if (lx > 0.0) mean += 0.5 * atan(lx, dot(a[k], a[(k + 1) & 3])) * x / lx;
+            }
+            if (dot(mean, c) < 0.0) mean = -mean;
+            if (!(dot(mean, mean) > 0.0)) mean = c;
+            shexp_multiply_circle_visibility(g, clamp(omega / (2.0 * PI), 0.0, 1.0), mean, g_is_one && count == 0u);
+        }
+        count += 1u;
+    }
+    return count;
+}
+
+// The visibility vector g at p (1 when nothing blocks); g_blockers counts spheres and planes.
+void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
+    for (int i = 0; i < SHN_C; ++i) g_log[i] = 0.0;
+    g_p = p;
+    g_n = n;
+    g_blockers = 0u;
+    g_large_count = 0u;
+    if (shx.sphere_count > 0u) bvh_cut(shx.sphere_count, vec4(p, 0.0), shx.sin_theta_max, p, n, 0.5 * PI);
+    for (int i = 0; i < SHN_C; ++i) g[i] = 0.0;
+    bool one = g_blockers == 0u;
+    if (one) {
+        g[0] = SHN_SQRT_4PI;
+    } else if (shx.exp_method == 1u) {
+        shn_exp_ol(g_log, g);
+    } else if (shx.exp_method == 2u) {
+        shn_exp_ps_star(g_log, shx.ps_degree, g);
+    } else {
+        shn_exp_hyb(g_log, shx.hyb_target, g);
+    }
+    for (uint k = 0u; k < g_large_count; ++k) {
+        shexp_multiply_circle_visibility(g, g_large[k].w, g_large[k].xyz, one && k == 0u);
+    }
+    one = one && g_large_count == 0u;
+    g_blockers += g_large_count;
+    g_blockers += shexp_planes(p, g, one);
+    // A log so large that the squarings overflowed is deep occlusion: no visibility (no NaN/inf).
+    bool bad = false;
+    for (int i = 0; i < SHN_C; ++i) bad = bad || isnan(g[i]) || isinf(g[i]);
+    if (bad) {
+        for (int i = 0; i < SHN_C; ++i) g[i] = 0.0;
+    }
+}
+
+float shexp_h_star(int l) {
+    return shx.h_star[l >> 2][l & 3];
+}
+
+// The windowed scaled zonal coefficients of a light's cap of half-angle α (the whole sphere when
+// `outside` is false).
+void shexp_cap_star(bool outside, float cos_alpha, out float cstar[SH_MAX_ORDER]) {
+    shexp_cap_star_raw(outside ? cos_alpha : -1.0, cstar);
+    for (int l = 0; l < SHEXP_N; ++l) cstar[l] *= shx.window[l >> 2][l & 3];
+}
+
+vec3 shade_point(ShadePoint sp) {
+    vec3 n = sp.normal;
+    float g[SHN_C];
+    shexp_visibility(sp.position, n, g);
+    // H(N), and P = H * g: every shaded quantity is a dot product with P (shadowed) or H (unshadowed).
+    float y[SH_MAX_COEFFS];
+    sh_eval(n, SHEXP_N, y);
+    float hv[SHN_C];
+    for (int l = 0; l < SHEXP_N; ++l) {
+        for (int i = l * l; i < (l + 1) * (l + 1); ++i) hv[i] = shexp_h_star(l) * y[i];
+    }
+    bool shadowed = g_blockers > 0u;
+    float pv[SHN_C];
+    if (shadowed) {
+        shn_product(hv, g, pv);
+    } else {
+        // g = 1: H * 1 = H exactly.
+        pv = hv;
+    }
+    vec3 e_sh = vec3(0.0);
+    vec3 e_free = vec3(0.0);
+    for (int i = 0; i < SHN_C; ++i) {
+        e_sh += env_sh[i].rgb * pv[i];
+        e_free += env_sh[i].rgb * hv[i];
+    }
+    vec3 ratio = vec3(1.0);
+    for (int c = 0; c < 3; ++c) {
+        if (e_free[c] > 1e-20) ratio[c] = clamp(e_sh[c] / e_free[c], 0.0, 1.0);
+    }
+    vec3 rho = sp.material.diffuse.rgb;
+    vec3 result = shx.diffuse_mode == 1u ? rho / PI * irradiance_lookup(irradiance_map, n) * ratio : rho * max(e_sh, vec3(0.0));
+
+    if (light_count > 0u) {
+        SpecLobe lobes[BRDF_MAX_LOBES];
+        int count = brdf_specular_lobes(sp.material, sp.normal, sp.view, lobes);
+        for (uint j = 0u; j < light_count; ++j) {
+            vec3 axis;
+            float sa, ca;
+            bool outside = light_cap(j, sp.position, axis, sa, ca);
+            float v = 1.0;
+            if (shadowed) {
+                float cstar[SH_MAX_ORDER];
+                shexp_cap_star(outside, ca, cstar);
+                float yc[SH_MAX_COEFFS];
+                sh_eval(axis, SHEXP_N, yc);
+                float num = 0.0, den = 0.0;
+                for (int l = 0; l < SHEXP_N; ++l) {
+                    for (int i = l * l; i < (l + 1) * (l + 1); ++i) {
+                        num += cstar[l] * yc[i] * pv[i];
+                        den += cstar[l] * yc[i] * hv[i];
+                    }
+                }
+                v = den > 1e-12 ? clamp(num / den, 0.0, 1.0) : 1.0;
+            }
+            if (v > 0.0) result += v * light_unshadowed(sp, j, lobes, count, outside, axis, sa, ca);
+        }
+    }
+
+    vec3 ks = sp.material.specular.rgb;
+    if (all(equal(ks, vec3(0.0)))) return result;
+    // Glossy: the diffuse visibility ratio (luminance-weighted) times the unshadowed glossy term.
+    vec3 lum_w = vec3(0.2126, 0.7152, 0.0722);
+    float den = dot(lum_w, e_free);
+    float vd = den > 1e-20 ? clamp(dot(lum_w, e_sh) / den, 0.0, 1.0) : 1.0;
+    return result + vd * specular_prefiltered(prefiltered_env, sp.material, sp.normal, sp.view);
+}

@@ -1,0 +1,222 @@
+//! Technique `shexp` on lavapipe: the GPU pass against its f64 twin (engine::passes::shade::shexp::cpu)
+//! per receiver, for each exp method at order 4 and for orders 3 and 6, on hard blocker sets:
+//! dozens of overlapping spheres (‖f̂‖ ≥ 20), receivers inside one and several spheres, tiny spheres
+//! (θ ≈ 1e-4 and 1e-3); no NaN or inf anywhere.
+
+use engine::blockers::geom::blocker_for_receiver;
+use engine::blockers::Sphere;
+use engine::math::sh::{circle_log_zonal, zh_rotate, ShTensor};
+use engine::passes::shade::shexp::cpu::Twin;
+use engine::passes::shade::shexp::{ExpChoice, ShexpOptions};
+use engine::renderer::RenderSettings;
+use engine::scene::Scene;
+use engine_tests::{assert_finite, render_with_gbuffer, rgb};
+use glam::{DVec3, Vec3};
+
+const W: u32 = 40;
+const H: u32 = 30;
+
+/// sphere_over_plane under the sphere scene's sky, with `local` blocker spheres in the ball's object
+/// space (the ball: centre `C`, radius `R`); returns the scene and the world-space spheres.
+fn scene_with(local: Vec<Sphere>) -> (Scene, Vec<Sphere>) {
+    const C: Vec3 = Vec3::new(0.1, 0.6, -0.1);
+    const R: f32 = 0.45;
+    let mut scene = engine_tests::fixtures::sphere_over_plane(demos::scenes::sphere::sky(), 0.7, C, R);
+    let world = local.iter().map(|s| Sphere::new(C.as_dvec3() + s.center * R as f64, s.radius * R as f64)).collect();
+    scene.blockers.spheres[1] = Some(local);
+    (scene, world)
+}
+
+/// GPU vs twin relative errors (per channel, relative to max(|twin|, 1e-3 · the scene's scale)) over
+/// every `step`-th receiver; also the largest ‖f̂‖ the twin saw.
+fn compare(gpu: &engine::gpu::Gpu, scene: &Scene, world: &[Sphere], spec: &str, o: &ShexpOptions) -> (Vec<f64>, f64) {
+    let planes = scene.blockers.planes.clone();
+    let settings = RenderSettings { width: W, height: H, technique: spec.into(), ..Default::default() };
+    let (hdr, g) = render_with_gbuffer(gpu, scene, settings);
+    assert_finite(&hdr, spec);
+    assert!(hdr.iter().all(|v| *v >= 0.0), "{spec}: negative radiance");
+    let twin = Twin::new(o, &scene.environment).expect("twin tables");
+    let albedo = [0.7, 0.8];
+    let mut errs = Vec::new();
+    let mut max_norm: f64 = 0.0;
+    for (i, px) in g.iter().enumerate().step_by(3) {
+        let Some((p, n, m)) = *px else { continue };
+        let (f, _) = twin.log_visibility(p, n, world);
+        max_norm = max_norm.max(f[1..].iter().map(|v| v * v).sum::<f64>().sqrt());
+        let (want, free) = twin.shade_diffuse(p, n, [albedo[m]; 3], world, &planes);
+        let got = rgb(&hdr, i);
+        for c in 0..3 {
+            let scale = (albedo[m] * free[c]).abs().max(1e-6);
+            errs.push((got[c] - want[c]).abs() / scale);
+        }
+    }
+    errs.sort_by(f64::total_cmp);
+    (errs, max_norm)
+}
+
+fn check(errs: &[f64], spec: &str, what: &str, p95_bound: f64, max_bound: f64) {
+    assert!(errs.len() > 300, "{spec} {what}: too few receivers ({})", errs.len());
+    let (p95, max) = (errs[errs.len() * 95 / 100], errs[errs.len() - 1]);
+    eprintln!("{spec} ({what}): {} samples, error / unshadowed: 95th percentile {p95:.2e}, max {max:.2e}", errs.len());
+    assert!(p95 < p95_bound && max < max_bound, "{spec} ({what}): p95 {p95}, max {max}");
+}
+
+// One sphere (the ball itself: its own receivers lie on it), every exp method, order 4, and the
+// orders 3 and 6: the GPU equals the twin to f32 rounding of the tables, the Γ loop and the exp.
+#[test]
+fn gpu_matches_the_f64_twin() {
+    let gpu = engine_tests::gpu();
+    let (scene, world) = scene_with(vec![Sphere::new(DVec3::ZERO, 1.0)]);
+    for (spec, exp, order) in [
+        ("shexp:theta_max=0", ExpChoice::Hyb, 4),
+        ("shexp:theta_max=0,exp=ol", ExpChoice::Ol, 4),
+        ("shexp:theta_max=0,exp=ps,p=2", ExpChoice::PsStar, 4),
+        ("shexp:theta_max=0,order=3", ExpChoice::Hyb, 3),
+        ("shexp:theta_max=0,order=6", ExpChoice::Hyb, 6),
+    ] {
+        let o = ShexpOptions { order, exp, theta_max_deg: 0.0, ..ShexpOptions::default() };
+        let (errs, _) = compare(&gpu, &scene, &world, spec, &o);
+        // Measured: p95 ≤ 1.3e-6, max ≤ 2.3e-6 of the unshadowed value.
+        check(&errs, spec, "one sphere", 1e-5, 1e-4);
+    }
+    // The ground as a half-space plane blocker too (its visibility multiplies the ball's receivers').
+    let mut with_plane = scene.clone();
+    with_plane.blockers.planes = vec![engine::blockers::BlockerPlane::half_space(DVec3::ZERO, DVec3::Y)];
+    for (spec, order, large_product) in [
+        ("shexp:theta_max=0", 4, true),
+        ("shexp:theta_max=0,order=6", 6, true),
+        ("shexp:theta_max=0,large=log", 4, false),
+    ] {
+        let o = ShexpOptions { order, theta_max_deg: 0.0, large_product, ..ShexpOptions::default() };
+        let (errs, _) = compare(&gpu, &with_plane, &world, spec, &o);
+        check(&errs, spec, "one sphere and a half-space", 1e-5, 1e-4);
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
+// Hard cases against the twin: 40 overlapping spheres around and through the ball (receivers inside
+// several at once, ‖f̂‖ ≥ 20 at the plane under them), and tiny spheres (θ ≈ 1e-4 .. 1e-3 from the
+// plane) that must darken by their solid angle and not more.
+#[test]
+fn hard_blocker_sets_match_the_twin() {
+    let gpu = engine_tests::gpu();
+    let overlapping: Vec<Sphere> = (0..40)
+        .map(|i| {
+            let t = i as f64 * 0.61;
+            Sphere::new(DVec3::new(0.5 * t.cos(), -1.2 + 0.06 * i as f64, 0.5 * t.sin()), 0.6)
+        })
+        .collect();
+    let tiny: Vec<Sphere> = (0..30)
+        .map(|i| {
+            let t = i as f64 * 0.9;
+            Sphere::new(DVec3::new(1.2 * t.cos(), -0.8, 1.2 * t.sin()), if i % 2 == 0 { 1e-4 } else { 1e-3 })
+        })
+        .collect();
+    // The tiny spheres' summed log against the exact eigen log of each circle (the table's small-angle
+    // limit; the old θ-linear table was ×6.2 too large at θ = 1e-3, ×61.6 at 1e-4).
+    {
+        let (scene, world) = scene_with(tiny.clone());
+        let o = ShexpOptions::default();
+        let twin = Twin::new(&o, &scene.environment).expect("twin tables");
+        let tensor = ShTensor::new(4);
+        let mut checked = 0;
+        for x in [-0.6, -0.2, 0.0, 0.3, 0.7] {
+            let (p, n) = (DVec3::new(x, 0.0, 0.1), DVec3::Y);
+            let (f, _) = twin.log_visibility(p, n, &world);
+            let mut want = [0.0; 16];
+            for s in &world {
+                let Some(b) = blocker_for_receiver(p, n, s) else { continue };
+                let theta = (b.radius / b.center.distance(p)).asin();
+                let z = zh_rotate(&circle_log_zonal(&tensor, theta), (b.center - p).to_array());
+                want.iter_mut().zip(&z).for_each(|(a, v)| *a += v);
+            }
+            assert!(want[0] < 0.0);
+            let rel = (f[0] - want[0]).abs() / want[0].abs();
+            eprintln!("tiny spheres at x = {x}: DC log {:.4e}, exact {:.4e} (relative {rel:.1e})", f[0], want[0]);
+            assert!(rel < 1e-3, "tiny spheres: DC log {} vs exact {}", f[0], want[0]);
+            checked += 1;
+        }
+        assert_eq!(checked, 5);
+    }
+    for (local, what, min_norm) in [(overlapping, "40 overlapping spheres", 20.0), (tiny, "30 tiny spheres", 0.0)] {
+        let (scene, world) = scene_with(local);
+        // large=log: every sphere in the log (with large=product the GPU's BVH order and the twin's
+        // list order would pick different spheres once more than four are large).
+        for (spec, exp) in
+            [("shexp:theta_max=0,large=log", ExpChoice::Hyb), ("shexp:theta_max=0,large=log,exp=ps", ExpChoice::PsStar)]
+        {
+            let o = ShexpOptions { exp, theta_max_deg: 0.0, large_product: false, ..ShexpOptions::default() };
+            let (errs, max_norm) = compare(&gpu, &scene, &world, spec, &o);
+            eprintln!("{what}: largest ‖f̂‖ at a receiver {max_norm:.1}");
+            assert!(max_norm >= min_norm, "{what}: ‖f̂‖ only reached {max_norm}");
+            // Measured: p95 ≤ 6.7e-6, max ≤ 1.2e-5 (40 spheres, ‖f̂‖ 28.5, 7 squarings); ≤ 3.3e-7 (tiny).
+            check(&errs, spec, what, 5e-5, 2e-4);
+        }
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
+// A sphere crossing the receiver's tangent plane as it moves (the §6.2 shrink rule, f64 twin, no
+// GPU): the shading changes by at most a small bound between neighbouring steps. A sphere that
+// grows to contain the receiver switches rules (shrink → min(h, r)): that jump is measured and
+// bounded separately (the paper's α scale that would remove it is not implemented).
+#[test]
+fn sphere_crossing_the_tangent_plane_is_continuous() {
+    let env = engine::math::envmap::LatLongMap::constant(32, 16, [1.0; 3]);
+    let twin = Twin::new(&ShexpOptions { large_product: false, ..ShexpOptions::default() }, &env).expect("twin tables");
+    let (p, n) = (DVec3::ZERO, DVec3::Y);
+    let path = |r: f64| -> Vec<f64> {
+        (0..=160)
+            .map(|k| {
+                let y = -0.8 + 1.6 * k as f64 / 160.0;
+                let s = Sphere::new(DVec3::new(0.0, y, 0.5), r);
+                let (v, free) = twin.shade_diffuse(p, n, [1.0; 3], &[s], &[]);
+                assert!(v[1].is_finite());
+                v[1] / free[1]
+            })
+            .collect()
+    };
+    let max_jump = |v: &[f64]| v.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+    let outside = path(0.3);
+    let inside = path(0.6);
+    let (jo, ji) = (max_jump(&outside), max_jump(&inside));
+    let darkest = outside.iter().cloned().fold(1.0, f64::min);
+    eprintln!("tangent-plane crossing: largest step {jo:.2e} (r = 0.3, darkest {darkest:.3}); through the receiver (r = 0.6) {ji:.2e}");
+    // Measured: 4.9e-3 per step (Δy = 0.01) at r = 0.3; 0.155 where the receiver enters the r = 0.6 sphere.
+    assert!(darkest < 0.95, "the sphere shadows the receiver on its path");
+    assert!(jo < 1e-2, "jump {jo}");
+    assert!(ji < 0.2, "jump {ji} where the receiver enters the sphere");
+}
+
+// A measurement helper, not a check (ignored): writes the environment `SHEXP_ENV` (default the
+// courtyard) band-limited to order `SHEXP_ORDER` (default 4) with the default window cos(π/2 · l/2n),
+// reconstructed at 256 × 128 and clamped at 0, to `SHEXP_BANDLIMITED_OUT`, so that `compare --env`
+// renders the reference under the same lighting as `shexp:h=64` (window ≈ 1 on the already windowed
+// map): only the visibility error remains (issue 18, "whole pipeline vs the reference under the same
+// order-n windowed lighting").
+#[test]
+#[ignore]
+fn write_band_limited_environment() {
+    use engine::math::sh::{eval, project_latlong, Window};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let src =
+        std::env::var("SHEXP_ENV").map(std::path::PathBuf::from).unwrap_or(root.join("assets/envmaps/courtyard.exr"));
+    let n: usize = std::env::var("SHEXP_ORDER").ok().and_then(|s| s.parse().ok()).unwrap_or(4);
+    let out = std::env::var("SHEXP_BANDLIMITED_OUT").expect("set SHEXP_BANDLIMITED_OUT");
+    let env = engine::scene::load_environment(&src).expect("environment");
+    let sh = project_latlong(&env, n, Window::cosine_default(n));
+    let (w, h) = (256u32, 128u32);
+    let map = engine::math::envmap::LatLongMap::constant(w as usize, h as usize, [0.0; 3]);
+    let mut rgba = Vec::with_capacity((w * h * 4) as usize);
+    for row in 0..h as usize {
+        for col in 0..w as usize {
+            let y = eval(n, map.texel_direction(col, row));
+            for c in sh.iter() {
+                rgba.push(c.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>().max(0.0) as f32);
+            }
+            rgba.push(1.0);
+        }
+    }
+    engine::output::write_exr(std::path::Path::new(&out), w, h, &rgba).expect("write");
+    eprintln!("wrote {out}: {} band-limited to order {n}", src.display());
+}
