@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod report;
+mod soak;
 mod tables;
 
 const APT_PACKAGES: &[&str] = &[
@@ -36,6 +37,7 @@ commands:
   spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)
   tables [--check]   regenerate the binary math tables in assets/tables (or check them)
   report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)
+  soak [--frames N]  N animated frames (default 10000), every technique in turn: memory must stay flat (--help)
   help, -h, --help   print this text";
 
 /// A usage error: the text on stderr, exit status 2 (what command-line tools use for bad usage).
@@ -56,6 +58,7 @@ fn main() {
         "spheres" => spheres(rest),
         "tables" => tables::run(rest),
         "report" => setup().and_then(|_| report::run(rest)),
+        "soak" => setup().and_then(|_| soak::run(rest)),
         // Asking for help is not an error: the text on stdout, status 0.
         "-h" | "--help" | "help" => {
             println!("{USAGE}");

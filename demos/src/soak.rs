@@ -1,0 +1,306 @@
+//! The soak test (`cargo xtask soak`, `soak` binary; a short run in tests/tests/soak.rs): many animated frames
+//! through the viewer's per-frame path, without a window, checking that host and device memory stay flat and
+//! that no validation error appears.
+//!
+//! Per frame it does what the viewer does (demos/src/viewer.rs `App::redraw` and `App::key`): move the camera
+//! (an orbit, like a mouse drag), pose the scene's animation, render, and at intervals switch the technique
+//! (the `T` key: `Renderer::set_technique`, which destroys the old technique and prepares the next) and the
+//! shading rate (the `V` key). The only difference is the target: `Renderer::render` (an offscreen frame)
+//! instead of `render_presenting` (the same frame plus a blit to the swapchain image).
+//!
+//! The run is a repeated *cycle*: for every scene, every registered technique, `switch_every` frames (half per
+//! pixel, half per vertex). The first cycle is the warm-up: everything the run will ever create has then been
+//! created once (allocator blocks, malloc arenas, shader caches). After it, memory is sampled at the end of
+//! every cycle, the same point of the same work, and must stay within the bounds of [`SoakOptions`] of the
+//! warm-up's end.
+
+use anyhow::{bail, Context, Result};
+use engine::gpu::Gpu;
+use engine::passes::shade::TECHNIQUES;
+use engine::renderer::{RenderSettings, Renderer};
+use glam::{Mat3, Vec3};
+use std::time::{Duration, Instant};
+
+/// What to soak.
+#[derive(Clone, Debug)]
+pub struct SoakOptions {
+    /// Frames in all (warm-up included).
+    pub frames: u64,
+    pub width: u32,
+    pub height: u32,
+    /// Registered scene names (each built once, rendered in turn).
+    pub scenes: Vec<String>,
+    /// Frames per technique before the next (half of them per vertex).
+    pub switch_every: u64,
+    /// Allowed growth of the process's resident set (VmRSS) after the warm-up, in bytes.
+    pub host_growth_bound: u64,
+    /// Allowed growth of the device memory allocated through the engine (gpu-allocator's report) after the
+    /// warm-up, in bytes.
+    pub device_growth_bound: u64,
+    /// A progress line on stderr this often.
+    pub progress_every: Duration,
+}
+
+impl SoakOptions {
+    /// The defaults of `cargo xtask soak`: 10,000 frames at 64×48 over every animated scene; bounds of 8 MiB
+    /// of host memory and 0 bytes of device memory (the engine's device allocations are deterministic: the
+    /// same work allocates the same bytes, so any growth is a leak).
+    pub fn new(frames: u64) -> Self {
+        Self {
+            frames,
+            width: 64,
+            height: 48,
+            scenes: crate::scenes::SCENES.iter().filter(|s| s.motion.is_some()).map(|s| s.name.to_string()).collect(),
+            switch_every: 20,
+            host_growth_bound: 8 << 20,
+            device_growth_bound: 0,
+            progress_every: Duration::from_secs(10),
+        }
+    }
+
+    /// Frames in one cycle (every scene × every technique × `switch_every`).
+    pub fn cycle_frames(&self) -> u64 {
+        self.scenes.len() as u64 * TECHNIQUES.len() as u64 * self.switch_every
+    }
+}
+
+/// Memory at one point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemorySample {
+    /// Frame index after which it was taken.
+    pub frame: u64,
+    /// VmRSS of this process, bytes.
+    pub host_rss: u64,
+    /// Device bytes allocated through gpu-allocator.
+    pub device_allocated: u64,
+    /// Device bytes reserved in allocator blocks.
+    pub device_reserved: u64,
+    /// Live device allocations.
+    pub live_allocations: usize,
+}
+
+/// What a soak measured.
+#[derive(Clone, Debug)]
+pub struct SoakReport {
+    pub frames: u64,
+    pub seconds: f64,
+    /// At the end of the warm-up cycle.
+    pub warm: MemorySample,
+    /// At the end of every later cycle (and the last frame).
+    pub samples: Vec<MemorySample>,
+    /// Technique switches made.
+    pub switches: u64,
+    /// Seconds spent creating renderers and switching techniques (preparation, not frames).
+    pub prepare_seconds: f64,
+}
+
+impl SoakReport {
+    /// Largest host growth after the warm-up (bytes; 0 when it shrank).
+    pub fn host_growth(&self) -> u64 {
+        self.samples.iter().map(|s| s.host_rss.saturating_sub(self.warm.host_rss)).max().unwrap_or(0)
+    }
+
+    /// Largest device growth after the warm-up (bytes).
+    pub fn device_growth(&self) -> u64 {
+        self.samples.iter().map(|s| s.device_allocated.saturating_sub(self.warm.device_allocated)).max().unwrap_or(0)
+    }
+
+    /// A summary for the terminal.
+    pub fn summary(&self) -> String {
+        let mib = |b: u64| b as f64 / 1048576.0;
+        let last = self.samples.last().copied().unwrap_or(self.warm);
+        format!(
+            "soak: {} frames in {:.1} s ({:.1} s of it preparing renderers and techniques), {} technique switches\n  host RSS after warm-up {:.2} MiB, \
+             at the end {:.2} MiB, largest growth {:.3} MiB\n  device memory after warm-up {:.3} MiB in {} \
+             allocations ({:.2} MiB reserved), at the end {:.3} MiB in {}, largest growth {} bytes",
+            self.frames,
+            self.seconds,
+            self.prepare_seconds,
+            self.switches,
+            mib(self.warm.host_rss),
+            mib(last.host_rss),
+            mib(self.host_growth()),
+            mib(self.warm.device_allocated),
+            self.warm.live_allocations,
+            mib(self.warm.device_reserved),
+            mib(last.device_allocated),
+            last.live_allocations,
+            self.device_growth()
+        )
+    }
+}
+
+/// The resident set size of this process (VmRSS in /proc/self/status), in bytes.
+pub fn host_rss() -> Result<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").context("reading /proc/self/status")?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:")).context("no VmRSS in /proc/self/status")?;
+    let kb: u64 = line
+        .trim_start_matches("VmRSS:")
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .with_context(|| format!("cannot read '{line}'"))?;
+    Ok(kb * 1024)
+}
+
+fn sample(gpu: &Gpu, frame: u64) -> Result<MemorySample> {
+    let m = gpu.memory_stats();
+    Ok(MemorySample {
+        frame,
+        host_rss: host_rss()?,
+        device_allocated: m.allocated_bytes,
+        device_reserved: m.reserved_bytes,
+        live_allocations: m.live_allocations,
+    })
+}
+
+/// The scene's camera turned about the vertical through its target (a slow mouse-drag orbit).
+fn orbit(camera: engine::scene::Camera, angle: f32) -> engine::scene::Camera {
+    let eye = camera.target + Mat3::from_axis_angle(Vec3::Y, angle) * (camera.eye - camera.target);
+    engine::scene::Camera { eye, ..camera }
+}
+
+/// Run the soak on `gpu`. Fails on the first validation error (naming the frame), on memory growth past the
+/// bounds, on a non-finite pixel in the last frame of a scene, or on any render error.
+pub fn run(gpu: &Gpu, options: &SoakOptions) -> Result<SoakReport> {
+    if options.scenes.is_empty() || options.switch_every == 0 || options.frames == 0 {
+        bail!("soak: no scenes, no frames or a zero switch interval");
+    }
+    let cycle = options.cycle_frames();
+    if options.frames < 2 * cycle {
+        bail!(
+            "soak: {} frames is less than two cycles of {cycle} (warm-up and one measured cycle): give more frames, \
+             fewer scenes or a shorter --switch-every",
+            options.frames
+        );
+    }
+    // Build every scene first (host memory for them is then part of the baseline).
+    let mut scenes = Vec::new();
+    for name in &options.scenes {
+        let entry = crate::scenes::find(name)?;
+        let scene = crate::scenes::build(name, None)?;
+        let animation = crate::Animation::for_entry(entry, &scene);
+        scenes.push((entry.name, scene, animation));
+    }
+    let t0 = Instant::now();
+    let mut last_progress = Instant::now();
+    let mut report = SoakReport { frames: 0, seconds: 0.0, warm: MemorySample::default(), samples: Vec::new(), switches: 0, prepare_seconds: 0.0 };
+    let per_scene = TECHNIQUES.len() as u64 * options.switch_every;
+    let mut frame = 0u64;
+    // Device memory at the last frame of each (scene, technique) segment of the warm-up, renderer alive: a later
+    // cycle at the same point must not hold more (a per-frame leak inside a live renderer shows here; the cycle
+    // samples below see only what outlives the renderers).
+    let mut segment_warm: Vec<Option<(u64, usize)>> = vec![None; scenes.len() * TECHNIQUES.len()];
+    'run: loop {
+        for (scene_index, (name, scene, animation)) in scenes.iter().enumerate() {
+            let settings = RenderSettings {
+                width: options.width,
+                height: options.height,
+                technique: TECHNIQUES[0].name.to_string(),
+                per_vertex: false,
+                exposure: 1.0,
+            };
+            let tp = Instant::now();
+            let mut renderer = Renderer::new(gpu, scene, settings).with_context(|| format!("soak: scene '{name}'"))?;
+            report.prepare_seconds += tp.elapsed().as_secs_f64();
+            let home = renderer.camera();
+            let result = (|| -> Result<bool> {
+                for k in 0..per_scene {
+                    let technique = TECHNIQUES[(k / options.switch_every) as usize].name;
+                    if renderer.technique_name() != technique {
+                        let tp = Instant::now();
+                        renderer.set_technique(gpu, technique)?;
+                        report.prepare_seconds += tp.elapsed().as_secs_f64();
+                        report.switches += 1;
+                    }
+                    renderer.settings.per_vertex = k % options.switch_every >= options.switch_every / 2;
+                    let t = frame as f32 / 30.0;
+                    renderer.set_camera(orbit(home, 0.01 * frame as f32));
+                    if let Some(a) = animation {
+                        a.apply(&mut renderer, t)?;
+                    }
+                    renderer.render(gpu).with_context(|| format!("soak: frame {frame} ('{name}', {technique})"))?;
+                    let errors = gpu.validation_errors();
+                    if let Some(e) = errors.first() {
+                        bail!("soak: validation error at frame {frame} ('{name}', {technique}): {e}");
+                    }
+                    frame += 1;
+                    if (k + 1) % options.switch_every == 0 {
+                        let m = gpu.memory_stats();
+                        let slot = &mut segment_warm[scene_index * TECHNIQUES.len() + (k / options.switch_every) as usize];
+                        match *slot {
+                            None => *slot = Some((m.allocated_bytes, m.live_allocations)),
+                            Some((bytes, live)) => {
+                                if m.allocated_bytes > bytes + options.device_growth_bound || m.live_allocations > live {
+                                    bail!(
+                                        "soak: at frame {frame} ('{name}', {technique}) the renderer holds {} device                                          bytes in {} allocations, {bytes} in {live} at the same point of the warm-up                                          (bound: +{} bytes)",
+                                        m.allocated_bytes,
+                                        m.live_allocations,
+                                        options.device_growth_bound
+                                    );
+                                }
+                            }
+                        }
+                    }
+                    if last_progress.elapsed() >= options.progress_every {
+                        last_progress = Instant::now();
+                        let s = sample(gpu, frame)?;
+                        eprintln!(
+                            "soak: frame {frame} of {} ({name}, {technique}), {:.0} s, host RSS {:.2} MiB, device {:.3} MiB in {} allocations",
+                            options.frames,
+                            t0.elapsed().as_secs_f64(),
+                            s.host_rss as f64 / 1048576.0,
+                            s.device_allocated as f64 / 1048576.0,
+                            s.live_allocations
+                        );
+                    }
+                    if frame == options.frames {
+                        return Ok(true);
+                    }
+                }
+                // The scene's last frame is a finite image (the soak must not hide a NaN that grows).
+                let hdr = renderer.read_radiance(gpu)?;
+                let bad = hdr.iter().filter(|v| !v.is_finite()).count();
+                if bad > 0 {
+                    bail!("soak: {bad} non-finite values in frame {frame} of '{name}'");
+                }
+                Ok(false)
+            })();
+            renderer.destroy(gpu);
+            let done = result?;
+            if frame % cycle == 0 || done {
+                let s = sample(gpu, frame)?;
+                if frame == cycle {
+                    report.warm = s;
+                } else if frame > cycle {
+                    report.samples.push(s);
+                    let host = s.host_rss.saturating_sub(report.warm.host_rss);
+                    let device = s.device_allocated.saturating_sub(report.warm.device_allocated);
+                    if host > options.host_growth_bound {
+                        bail!(
+                            "soak: host memory grew by {:.2} MiB after the warm-up (bound {:.2} MiB), at frame {frame}",
+                            host as f64 / 1048576.0,
+                            options.host_growth_bound as f64 / 1048576.0
+                        );
+                    }
+                    if device > options.device_growth_bound || s.live_allocations > report.warm.live_allocations {
+                        bail!(
+                            "soak: device memory grew by {device} bytes ({} -> {} live allocations) after the warm-up \
+                             (bound {} bytes), at frame {frame}",
+                            report.warm.live_allocations,
+                            s.live_allocations,
+                            options.device_growth_bound
+                        );
+                    }
+                }
+            }
+            if done {
+                break 'run;
+            }
+        }
+    }
+    report.frames = frame;
+    report.seconds = t0.elapsed().as_secs_f64();
+    Ok(report)
+}
