@@ -10,7 +10,7 @@ fn three_hundred_animated_frames_keep_memory_flat() {
     let gpu = engine_tests::gpu();
     let techniques = engine::passes::shade::TECHNIQUES.len() as u64;
     // One cycle = every technique for `switch_every` frames; 300 frames = the warm-up cycle and at least two
-    // measured ones whatever the number of registered techniques (3 today: 100 frames per cycle).
+    // measured ones whatever the number of registered techniques (3 today: 100 frames per cycle, 8 switches).
     let options = SoakOptions {
         width: 32,
         height: 24,
@@ -22,9 +22,9 @@ fn three_hundred_animated_frames_keep_memory_flat() {
     eprintln!("{}", report.summary());
     assert_eq!(report.frames, 300);
     assert!(report.samples.len() >= 2, "{:?}", report.samples);
-    assert!(report.switches >= 3 * (techniques - 1), "{}", report.switches);
+    assert!(report.switches >= 3 * techniques - 1, "{}", report.switches);
     assert!(report.host_growth() <= options.host_growth_bound);
-    assert_eq!(report.device_growth(), 0);
+    assert!(report.device_growth() <= options.device_growth_bound);
     gpu.shutdown().unwrap();
 }
 

@@ -60,6 +60,11 @@ fn run() -> anyhow::Result<()> {
     let report = result?;
     teardown?;
     println!("{}", report.summary());
-    println!("soak: passed (host growth bound {:.1} MiB, device growth bound 0 bytes, no validation error)", args.host_bound_mib);
+    println!(
+        "soak: passed (bounds after the warm-up: host +{:.1} MiB, device +{:.1} MiB and no more live allocations; no \
+         validation error)",
+        args.host_bound_mib,
+        options.device_growth_bound as f64 / 1048576.0
+    );
     Ok(())
 }
