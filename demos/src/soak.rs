@@ -43,7 +43,8 @@ pub struct SoakOptions {
 }
 
 impl SoakOptions {
-    /// The defaults of `cargo xtask soak`: 10,000 frames at 64×48 over every animated scene; bounds of 8 MiB
+    /// The defaults of `cargo xtask soak`: 10,000 frames at 64×48 over every animated scene, 200 frames per
+    /// technique (a switch costs seconds on lavapipe: the isg technique's preparation); bounds of 8 MiB
     /// of host memory and 1 MiB of device memory, with never more live device allocations than at the same
     /// point of the warm-up. (Device bytes are not exactly constant: the reference rebuilds its triangle BVH
     /// from the skinned pose, and the node count, so the buffer, changes with the pose by a few hundred bytes;
@@ -54,7 +55,7 @@ impl SoakOptions {
             width: 64,
             height: 48,
             scenes: crate::scenes::SCENES.iter().filter(|s| s.motion.is_some()).map(|s| s.name.to_string()).collect(),
-            switch_every: 20,
+            switch_every: 200,
             host_growth_bound: 8 << 20,
             device_growth_bound: 1 << 20,
             progress_every: Duration::from_secs(10),

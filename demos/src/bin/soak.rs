@@ -19,7 +19,7 @@ struct Args {
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
     /// Frames per technique before the next one (half per pixel, half per vertex).
-    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(2..))]
+    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u64).range(2..))]
     switch_every: u64,
     /// Allowed host (VmRSS) growth after the warm-up, MiB.
     #[arg(long, default_value_t = 8.0)]

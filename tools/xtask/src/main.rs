@@ -8,6 +8,7 @@ use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod fuzz;
 mod report;
 mod soak;
 mod tables;
@@ -38,6 +39,7 @@ commands:
   tables [--check]   regenerate the binary math tables in assets/tables (or check them)
   report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)
   soak [--frames N]  N animated frames (default 10000), every technique in turn: memory must stay flat (--help)
+  fuzz TARGET|all    mutation-fuzz a loader (obj gltf glb exr hdr spheres) [--runs N] [--seconds S]
   help, -h, --help   print this text";
 
 /// A usage error: the text on stderr, exit status 2 (what command-line tools use for bad usage).
@@ -59,6 +61,7 @@ fn main() {
         "tables" => tables::run(rest),
         "report" => setup().and_then(|_| report::run(rest)),
         "soak" => setup().and_then(|_| soak::run(rest)),
+        "fuzz" => fuzz::run(rest),
         // Asking for help is not an error: the text on stdout, status 0.
         "-h" | "--help" | "help" => {
             println!("{USAGE}");
