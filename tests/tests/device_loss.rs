@@ -32,7 +32,13 @@ impl Work {
 }
 
 /// One frame: a tiny `before` pass, `spin` doing `work`, a tiny `after` pass.
-fn spin_frame(gpu: &Gpu, frame: &mut Frame, pipe: &ComputePipeline, out: &engine::gpu::Buffer, work: Work) -> Result<()> {
+fn spin_frame(
+    gpu: &Gpu,
+    frame: &mut Frame,
+    pipe: &ComputePipeline,
+    out: &engine::gpu::Buffer,
+    work: Work,
+) -> Result<()> {
     let bind = [Binding::buffer("Output", out)];
     gpu.run_frame(frame, None, None, |rec| {
         rec.begin_pass("before");

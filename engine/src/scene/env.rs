@@ -119,7 +119,10 @@ fn load_exr(path: &Path) -> Result<LatLongMap> {
     let size = image.layer_data.size;
     let (_, texels) = image.layer_data.channel_data.pixels;
     if texels.len() != size.width() * size.height() {
-        return Err(SceneError::invalid(path, "not a valid OpenEXR file: the decoder's size disagrees with its pixels"));
+        return Err(SceneError::invalid(
+            path,
+            "not a valid OpenEXR file: the decoder's size disagrees with its pixels",
+        ));
     }
     Ok(LatLongMap { width: size.width(), height: size.height(), texels })
 }

@@ -89,7 +89,7 @@ impl Rng {
     pub fn new(seed: u64) -> Self {
         Self(seed)
     }
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
@@ -98,15 +98,37 @@ impl Rng {
     }
     /// Uniform in `0..n` (n > 0).
     pub fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        (self.next_u64() % n.max(1) as u64) as usize
     }
 }
 
 /// Numbers that break parsers: bounds of the integer types, zero, negatives, huge and non-finite floats.
 const NUMBERS: &[&str] = &[
-    "0", "-1", "1", "2", "-0", "255", "256", "65535", "65536", "2147483647", "2147483648", "-2147483648",
-    "4294967295", "4294967296", "18446744073709551615", "99999999999999999999", "1e38", "1e309", "-1e309", "nan",
-    "inf", "-inf", "0.0000001", "3.4e38", "1e-45",
+    "0",
+    "-1",
+    "1",
+    "2",
+    "-0",
+    "255",
+    "256",
+    "65535",
+    "65536",
+    "2147483647",
+    "2147483648",
+    "-2147483648",
+    "4294967295",
+    "4294967296",
+    "18446744073709551615",
+    "99999999999999999999",
+    "1e38",
+    "1e309",
+    "-1e309",
+    "nan",
+    "inf",
+    "-inf",
+    "0.0000001",
+    "3.4e38",
+    "1e-45",
 ];
 
 /// Byte values of libFuzzer's "interesting" set.
@@ -118,7 +140,7 @@ pub fn mutate(rng: &mut Rng, data: &mut Vec<u8>, seeds: &[Vec<u8>]) {
     let rounds = 1 + rng.below(4);
     for _ in 0..rounds {
         if data.is_empty() {
-            data.push(rng.next() as u8);
+            data.push(rng.next_u64() as u8);
             continue;
         }
         let n = data.len();
@@ -131,7 +153,7 @@ pub fn mutate(rng: &mut Rng, data: &mut Vec<u8>, seeds: &[Vec<u8>]) {
             // A random byte.
             1 => {
                 let i = rng.below(n);
-                data[i] = rng.next() as u8;
+                data[i] = rng.next_u64() as u8;
             }
             // An interesting byte.
             2 => {
@@ -143,7 +165,8 @@ pub fn mutate(rng: &mut Rng, data: &mut Vec<u8>, seeds: &[Vec<u8>]) {
                 let width = [2usize, 4, 8][rng.below(3)];
                 if n >= width {
                     let i = rng.below(n - width + 1);
-                    let v: u64 = [0, 1, u64::MAX, 0x7fff_ffff, 0x8000_0000, 0xffff, 0x1_0000, rng.next()][rng.below(8)];
+                    let v: u64 =
+                        [0, 1, u64::MAX, 0x7fff_ffff, 0x8000_0000, 0xffff, 0x1_0000, rng.next_u64()][rng.below(8)];
                     let bytes = if rng.below(2) == 0 { v.to_le_bytes() } else { v.to_be_bytes() };
                     data[i..i + width].copy_from_slice(&bytes[..width]);
                 }
@@ -152,7 +175,7 @@ pub fn mutate(rng: &mut Rng, data: &mut Vec<u8>, seeds: &[Vec<u8>]) {
             4 => {
                 let i = rng.below(n + 1);
                 let k = 1 + rng.below(16);
-                let ins: Vec<u8> = (0..k).map(|_| rng.next() as u8).collect();
+                let ins: Vec<u8> = (0..k).map(|_| rng.next_u64() as u8).collect();
                 data.splice(i..i, ins);
             }
             // Delete a range.
@@ -400,7 +423,12 @@ impl Driver {
     }
 
     /// Run until `runs` executions or `time` elapsed (whichever first), calling `progress` every ~5 s.
-    pub fn run(&mut self, runs: u64, time: Option<Duration>, mut progress: impl FnMut(&Stats)) -> std::io::Result<Stats> {
+    pub fn run(
+        &mut self,
+        runs: u64,
+        time: Option<Duration>,
+        mut progress: impl FnMut(&Stats),
+    ) -> std::io::Result<Stats> {
         quiet_panics();
         let pending = self.pending_path();
         let mut stats = Stats::default();
@@ -426,7 +454,8 @@ impl Driver {
             stats.slowest = stats.slowest.max(o.elapsed);
             stats.peak_bytes = stats.peak_bytes.max(o.peak_bytes);
             if let Some((kind, message)) = check(&o) {
-                let saved = self.dir.join(format!("{kind}-{}-{:016x}.{}", self.target.name, hash(&input), self.target.ext));
+                let saved =
+                    self.dir.join(format!("{kind}-{}-{:016x}.{}", self.target.name, hash(&input), self.target.ext));
                 std::fs::write(&saved, &input)?;
                 stats.findings.push(Finding { kind, message, saved });
             }

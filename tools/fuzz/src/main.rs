@@ -7,7 +7,8 @@ use std::time::Duration;
 #[global_allocator]
 static ALLOC: CountingAlloc = CountingAlloc;
 
-const USAGE: &str = "usage: fuzz TARGET|all [--runs N (default 1000000)] [--seconds S] [--seed K] [--dir D (default out/fuzz)]";
+const USAGE: &str =
+    "usage: fuzz TARGET|all [--runs N (default 1000000)] [--seconds S] [--seed K] [--dir D (default out/fuzz)]";
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -44,7 +45,13 @@ fn main() {
         eprintln!("fuzz {}: {runs} runs, seed {seed}; the input being run is {}", t.name, d.pending_path().display());
         let stats = d
             .run(runs, seconds, |s| {
-                eprintln!("fuzz {}: {} executions, {:.0}/s, {} finding(s)", t.name, s.executions, s.per_second(), s.findings.len())
+                eprintln!(
+                    "fuzz {}: {} executions, {:.0}/s, {} finding(s)",
+                    t.name,
+                    s.executions,
+                    s.per_second(),
+                    s.findings.len()
+                )
             })
             .unwrap_or_else(|e| fail(&format!("{}: {e}", dir.display())));
         println!("{}", stats.summary(t.name));

@@ -84,11 +84,11 @@ pub fn gltf() -> Vec<Vec<u8>> {
 /// GLB: the glTF seed as a binary container (JSON chunk, BIN chunk).
 pub fn glb() -> Vec<Vec<u8>> {
     let mut json = gltf_json("").into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin = gltf_buffer();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();
@@ -111,13 +111,8 @@ pub fn glb() -> Vec<Vec<u8>> {
 pub fn exr() -> Vec<Vec<u8>> {
     use exr::prelude::*;
     let mut out = Vec::new();
-    let compressions = [
-        Compression::Uncompressed,
-        Compression::RLE,
-        Compression::ZIP1,
-        Compression::ZIP16,
-        Compression::PIZ,
-    ];
+    let compressions =
+        [Compression::Uncompressed, Compression::RLE, Compression::ZIP1, Compression::ZIP16, Compression::PIZ];
     for (i, compression) in compressions.into_iter().enumerate() {
         for half in [false, true] {
             let blocks = if i % 2 == 0 { Blocks::ScanLines } else { Blocks::Tiles(Vec2(4, 4)) };
@@ -147,7 +142,8 @@ pub fn exr() -> Vec<Vec<u8>> {
 /// Radiance HDR: flat RGBE pixels (8×4) and new-style run-length scan lines (16×2, runs and literals). (The
 /// loader reads the standard `-Y H +X W` orientation only; a `+Y` file is in the regression corpus.)
 pub fn hdr() -> Vec<Vec<u8>> {
-    let header = |res: &str| format!("#?RADIANCE\n# seed\nFORMAT=32-bit_rle_rgbe\nEXPOSURE=1.0\n\n{res}\n").into_bytes();
+    let header =
+        |res: &str| format!("#?RADIANCE\n# seed\nFORMAT=32-bit_rle_rgbe\nEXPOSURE=1.0\n\n{res}\n").into_bytes();
     let mut flat = header("-Y 4 +X 8");
     for i in 0..32u8 {
         flat.extend_from_slice(&[i * 7, 128, 255 - i, 129]);
