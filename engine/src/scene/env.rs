@@ -195,6 +195,11 @@ fn check_exr_headers(data: &[u8]) -> std::result::Result<(), String> {
             if tw <= 0 || th <= 0 {
                 return Err(format!("bad tile size {tw}x{th}"));
             }
+            // The decoder allocates whole tiles: a tile far larger than the image is a decompression bomb, not
+            // a layout (the fuzzer: an 8x4 image in 671 bytes with 4x134217732 tiles cost 1 GiB and 9 s).
+            if tw as i64 > w.max(256) || th as i64 > h.max(256) {
+                return Err(format!("tile size {tw}x{th} larger than the {w}x{h} image (and 256)"));
+            }
             (w as u64).div_ceil(tw as u64) * (h as u64).div_ceil(th as u64)
         } else {
             let lines = match compression {
