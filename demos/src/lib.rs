@@ -10,6 +10,7 @@ pub mod export;
 pub mod measure;
 pub mod report;
 pub mod scenes;
+pub mod soak;
 pub mod viewer;
 
 pub use scenes::Animation;

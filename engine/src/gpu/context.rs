@@ -1,5 +1,6 @@
 //! Instance, device choice, queue, allocator, validation messenger, teardown.
 
+use super::watchdog::Watchdog;
 use super::{GpuError, Result, ShaderCompiler, VkCheck};
 use ash::{ext, khr, vk};
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
@@ -111,6 +112,7 @@ pub struct Gpu {
     log: Box<ValidationLog>,
     pub info: AdapterInfo,
     pub(crate) timestamps_supported: bool,
+    pub(crate) watchdog: Watchdog,
     shut_down: bool,
 }
 
@@ -197,6 +199,8 @@ impl Gpu {
     /// Create the context: load Vulkan, choose the device (discrete > integrated > virtual > CPU,
     /// or `desc.device_name`), enable what the engine needs.
     pub fn new(desc: &GpuDesc) -> Result<Self> {
+        // Fence timeout and test hook from the environment first: a malformed value fails before any Vulkan call.
+        let watchdog = Watchdog::from_env()?;
         // SAFETY: loading libvulkan runs its initialisers; we trust the system loader.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::Loader(e.to_string()))?;
 
@@ -266,7 +270,7 @@ impl Gpu {
             None
         };
 
-        match Self::create_device(InstanceParts { entry, instance, debug_utils, log }, desc, validation) {
+        match Self::create_device(InstanceParts { entry, instance, debug_utils, log }, desc, validation, watchdog) {
             Ok(gpu) => Ok(gpu),
             Err(failed) => {
                 let (e, parts) = *failed;
@@ -285,6 +289,7 @@ impl Gpu {
         parts: InstanceParts,
         desc: &GpuDesc,
         validation: bool,
+        watchdog: Watchdog,
     ) -> std::result::Result<Self, Box<(GpuError, InstanceParts)>> {
         macro_rules! fail {
             ($e:expr) => {
@@ -509,6 +514,7 @@ impl Gpu {
             log,
             info,
             timestamps_supported: ts_bits > 0 && props.limits.timestamp_compute_and_graphics == vk::TRUE,
+            watchdog,
             shut_down: false,
         })
     }
@@ -578,8 +584,15 @@ impl Gpu {
         unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")
     }
 
-    /// Record commands into a one-time command buffer, submit and wait.
+    /// Record commands into a one-time command buffer, submit and wait (at most [`Gpu::fence_timeout`]).
     pub fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        self.submit_and_wait_labeled("a one-time submission", record)
+    }
+
+    /// [`Gpu::submit_and_wait`] with the submission's name for a timeout or device-loss error.
+    pub(crate) fn submit_and_wait_labeled(&self, label: &str, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        self.check_not_lost(label)?;
+        self.drain();
         let alloc_info = vk::CommandBufferAllocateInfo::default()
             .command_pool(self.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
@@ -600,11 +613,16 @@ impl Gpu {
                 let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None).vk("vkCreateFence")?;
                 let cmds = [cmd];
                 let submit = vk::SubmitInfo::default().command_buffers(&cmds);
-                let r = self
-                    .device
-                    .queue_submit(self.queue, &[submit], fence)
-                    .vk("vkQueueSubmit")
-                    .and_then(|_| self.device.wait_for_fences(&[fence], true, u64::MAX).vk("vkWaitForFences"));
+                if let Err(e) = self.device.queue_submit(self.queue, &[submit], fence).vk("vkQueueSubmit") {
+                    self.device.destroy_fence(fence, None);
+                    return Err(e);
+                }
+                let r = self.wait_fence(fence, || format!("{label} (not a frame: an upload, readback or transition)"));
+                if r.is_err() {
+                    // The submission may still run: the device must be idle before its fence and command
+                    // buffer (and the caller's staging buffers, destroyed next) go (watchdog.rs).
+                    self.drain();
+                }
                 self.device.destroy_fence(fence, None);
                 r
             })();
@@ -629,6 +647,7 @@ impl Gpu {
         // dropped before the device (gpu-allocator requirement).
         unsafe {
             let _ = self.device.device_wait_idle();
+            let _ = self.watchdog.take_draining();
             self.device.destroy_sampler(self.linear_sampler, None);
             self.device.destroy_command_pool(self.command_pool, None);
             if let Ok(a) = self.allocator.lock() {

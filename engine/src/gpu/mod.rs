@@ -15,6 +15,7 @@ mod shader;
 mod spirv;
 mod swapchain;
 pub mod testing;
+mod watchdog;
 
 pub use context::{default_shader_root, AdapterInfo, Gpu, GpuDesc, MemoryStats, ValidationMode};
 pub use pipeline::{Binding, ComputePipeline, GraphicsPipeline, GraphicsPipelineDesc};
@@ -23,6 +24,7 @@ pub use resources::{Buffer, BufferDesc, Image, ImageDesc, ImageFormat, Memory};
 pub use shader::{ShaderCompiler, ShaderModuleInfo, ShaderStage};
 pub use spirv::{DescriptorKind, MemberLayout, ReflectedBinding, Reflection, Scalar, ScalarKind, StructLayout};
 pub use swapchain::{surface_extensions, Swapchain, SwapchainImage};
+pub use watchdog::{parse_fence_timeout, DEFAULT_FENCE_TIMEOUT, FENCE_TIMEOUT_ENV, SIMULATE_LOSS_ENV};
 
 /// Errors of the GPU layer.
 #[derive(Debug, thiserror::Error)]
@@ -45,6 +47,12 @@ pub enum GpuError {
     Binding { pipeline: String, message: String },
     #[error("{0}")]
     Other(String),
+    /// A submission did not finish within the fence timeout ([`Gpu::fence_timeout`]).
+    #[error("GPU submission did not finish within {seconds} s: {submission} ({FENCE_TIMEOUT_ENV} sets the limit)")]
+    Timeout { submission: String, seconds: f64 },
+    /// `VK_ERROR_DEVICE_LOST` (or the test hook that simulates it).
+    #[error("the Vulkan device was lost (VK_ERROR_DEVICE_LOST) during {submission} ({detail})")]
+    DeviceLost { submission: String, detail: String },
     #[error("GPU teardown found problems:\n{0}")]
     Teardown(String),
 }

@@ -401,10 +401,12 @@ impl Gpu {
     }
 
     pub fn destroy_compute_pipeline(&self, p: ComputePipeline) {
+        self.drain();
         p.core.destroy(self);
     }
 
     pub fn destroy_graphics_pipeline(&self, p: GraphicsPipeline) {
+        self.drain();
         p.core.destroy(self);
     }
 }

@@ -21,8 +21,18 @@ pub struct Frame {
     cmd: vk::CommandBuffer,
     fence: vk::Fence,
     queries: vk::QueryPool,
-    passes: Vec<(String, u32)>,
+    /// The passes recorded, in order, with their first timestamp query (none without timestamps). Kept
+    /// either way: a timeout or a lost device names them.
+    passes: Vec<(String, Option<u32>)>,
     query_count: u32,
+    /// Submitted, and the wait for it failed (timeout, device loss): the fence may still signal.
+    pending: bool,
+    /// Breadcrumb: a host-visible u32 the frame's commands overwrite with the number of passes finished, at
+    /// each pass start (after the full barrier that waits for the earlier passes) and at the frame's end. On a
+    /// timeout or a loss it tells which pass was running. Portable stand-in for NVIDIA's
+    /// VK_NV_device_diagnostic_checkpoints and AMD's buffer markers. (Timestamp *availability* cannot serve:
+    /// lavapipe marks a timestamp available when it processes the command, before the work ahead of it ends.)
+    crumb: Buffer,
 }
 
 /// Records into a [`Frame`]; get one from [`Gpu::record_frame`].
@@ -54,17 +64,29 @@ impl Gpu {
                     None,
                 )
                 .vk("vkCreateQueryPool")?;
-            Ok(Frame { cmd, fence, queries, passes: Vec::with_capacity(16), query_count: 0 })
+            let crumb = match self.create_buffer("frame-breadcrumb", super::BufferDesc::readback(4)) {
+                Ok(b) => b,
+                Err(e) => {
+                    self.device.destroy_query_pool(queries, None);
+                    self.device.destroy_fence(fence, None);
+                    self.device.free_command_buffers(self.command_pool, &[cmd]);
+                    return Err(e);
+                }
+            };
+            Ok(Frame { cmd, fence, queries, passes: Vec::with_capacity(16), query_count: 0, pending: false, crumb })
         }
     }
 
     pub fn destroy_frame(&self, frame: Frame) {
-        // SAFETY: the caller waited for the frame (run_frame waits before returning).
+        // After a failed wait the frame may still execute: wait for the device first (watchdog.rs).
+        self.drain();
+        // SAFETY: the frame finished: run_frame waited for it, or drain() waited for the device.
         unsafe {
             self.device.destroy_query_pool(frame.queries, None);
             self.device.destroy_fence(frame.fence, None);
             self.device.free_command_buffers(self.command_pool, &[frame.cmd]);
         }
+        self.destroy_buffer(frame.crumb);
     }
 
     /// Record a frame with `record`, submit it (waiting on / signalling the given semaphores),
@@ -76,6 +98,15 @@ impl Gpu {
         signal: Option<vk::Semaphore>,
         record: impl FnOnce(&mut Recorder) -> Result<()>,
     ) -> Result<Vec<PassTiming>> {
+        self.check_not_lost("a frame")?;
+        if frame.pending {
+            // The last submission of this frame was given up on: let it end before its command buffer,
+            // queries and fence are reused.
+            self.drain();
+            // SAFETY: the device is idle, so the fence is not in use.
+            unsafe { self.device.reset_fences(&[frame.fence]) }.vk("vkResetFences")?;
+            frame.pending = false;
+        }
         frame.passes.clear();
         frame.query_count = 0;
         // SAFETY: the frame's previous submission was waited for; the pool is host-resettable
@@ -93,10 +124,14 @@ impl Gpu {
                 .vk("vkBeginCommandBuffer")?;
         }
         let mut rec = Recorder { gpu: self, frame, open_pass: false, error: None };
+        rec.crumb(0);
         let recorded = record(&mut rec);
         if rec.open_pass {
             rec.end_pass();
         }
+        // Every pass finished (the barrier waits for them), for the breadcrumb.
+        rec.barrier();
+        rec.crumb(rec.frame.passes.len() as u32);
         let deferred = rec.error.take();
         let frame = rec.frame;
         // SAFETY: cmd is in the recording state.
@@ -113,12 +148,14 @@ impl Gpu {
             .wait_semaphores(&wait_sems)
             .wait_dst_stage_mask(&wait_stages)
             .signal_semaphores(&signal_sems);
-        // SAFETY: everything referenced by the command buffer is alive until the fence wait below.
-        unsafe {
-            self.device.queue_submit(self.queue, &[submit], frame.fence).vk("vkQueueSubmit")?;
-            self.device.wait_for_fences(&[frame.fence], true, u64::MAX).vk("vkWaitForFences")?;
-            self.device.reset_fences(&[frame.fence]).vk("vkResetFences")?;
-        }
+        // SAFETY: everything referenced by the command buffer is alive until the fence wait below (or, when
+        // that wait fails, until drain() at the next destroy).
+        unsafe { self.device.queue_submit(self.queue, &[submit], frame.fence) }.vk("vkQueueSubmit")?;
+        frame.pending = true;
+        self.wait_fence(frame.fence, || self.describe_frame(frame))?;
+        frame.pending = false;
+        // SAFETY: the fence signalled; nothing waits on it.
+        unsafe { self.device.reset_fences(&[frame.fence]) }.vk("vkResetFences")?;
         let mut timings = Vec::with_capacity(frame.passes.len());
         if self.timestamps_supported && frame.query_count > 0 {
             let mut stamps = [0u64; MAX_QUERIES as usize];
@@ -133,12 +170,36 @@ impl Gpu {
                     )
                     .vk("vkGetQueryPoolResults")?;
             }
-            for (name, q) in &frame.passes {
+            for (name, q) in frame.passes.iter().filter_map(|(n, q)| q.map(|q| (n, q))) {
+                let q = &q;
                 let dt = stamps[*q as usize + 1].wrapping_sub(stamps[*q as usize]);
                 timings.push(PassTiming { name: name.clone(), ms: dt as f64 * self.info.timestamp_period_ns * 1e-6 });
             }
         }
         Ok(timings)
+    }
+
+    /// A frame whose wait failed, for the error: its passes and, from the breadcrumb, which had finished,
+    /// which was running and which had not started.
+    fn describe_frame(&self, frame: &Frame) -> String {
+        let names: Vec<&str> = frame.passes.iter().map(|(n, _)| n.as_str()).collect();
+        if names.is_empty() {
+            return "a frame with no named pass".into();
+        }
+        let list = format!("a frame with passes [{}]", names.join(", "));
+        // The device may still write it: a torn read is impossible for one aligned u32 (and a stale one only
+        // names an earlier pass).
+        let Some(finished) = frame.crumb.read::<u32>().ok().and_then(|v| v.first().copied()) else { return list };
+        let finished = finished as usize;
+        let join = |v: &[&str]| if v.is_empty() { "none".to_string() } else { v.join(", ") };
+        match names.get(finished) {
+            Some(running) => format!(
+                "{list}: pass '{running}' was running (finished: {}; not started: {})",
+                join(&names[..finished]),
+                join(&names[finished + 1..])
+            ),
+            None => format!("{list}: every pass had finished (the end of the frame had not)"),
+        }
     }
 }
 
@@ -164,12 +225,20 @@ impl Recorder<'_> {
         };
     }
 
+    /// Overwrite the frame's breadcrumb with `passes_finished` (after a barrier: see [`Frame`]).
+    fn crumb(&mut self, passes_finished: u32) {
+        // SAFETY: cmd is recording, outside any render pass; the buffer is the frame's, 4 bytes, TRANSFER_DST.
+        unsafe { self.gpu.device.cmd_fill_buffer(self.frame.cmd, self.frame.crumb.raw, 0, 4, passes_finished) };
+    }
+
     /// Start a timed pass (ends the previous one). A barrier separates it from earlier work.
     pub fn begin_pass(&mut self, name: &str) {
         if self.open_pass {
             self.end_pass();
         }
         self.barrier();
+        self.crumb(self.frame.passes.len() as u32);
+        self.frame.passes.push((name.to_string(), None));
         if self.gpu.timestamps_supported && self.frame.query_count + 2 <= MAX_QUERIES {
             let q = self.frame.query_count;
             // SAFETY: q is within the (reset) pool.
@@ -182,7 +251,9 @@ impl Recorder<'_> {
                 )
             };
             self.frame.query_count += 2;
-            self.frame.passes.push((name.to_string(), q));
+            if let Some(last) = self.frame.passes.last_mut() {
+                last.1 = Some(q);
+            }
             self.open_pass = true;
         }
     }
@@ -192,7 +263,7 @@ impl Recorder<'_> {
             return;
         }
         self.open_pass = false;
-        let q = self.frame.passes.last().map_or(0, |p| p.1) + 1;
+        let Some(q) = self.frame.passes.last().and_then(|p| p.1).map(|q| q + 1) else { return };
         // SAFETY: q was reserved by begin_pass.
         unsafe {
             self.gpu.device.cmd_write_timestamp2(

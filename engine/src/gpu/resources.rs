@@ -196,6 +196,7 @@ impl Gpu {
     }
 
     pub fn destroy_buffer(&self, mut buffer: Buffer) {
+        self.drain();
         // SAFETY: the caller hands the buffer over by value after the GPU finished with it.
         unsafe { self.device.destroy_buffer(buffer.raw, None) };
         if let Some(a) = buffer.allocation.take() {
@@ -221,7 +222,7 @@ impl Gpu {
     pub fn copy_to_buffer(&self, buffer: &Buffer, bytes: &[u8]) -> Result<()> {
         let mut staging = self.create_buffer("staging", BufferDesc::upload(bytes.len() as u64))?;
         let result = staging.write(bytes).and_then(|_| {
-            self.submit_and_wait(|cmd| {
+            self.submit_and_wait_labeled("a buffer upload", |cmd| {
                 let region = vk::BufferCopy::default().size(bytes.len() as u64);
                 // SAFETY: both buffers are alive until the wait returns.
                 unsafe { self.device.cmd_copy_buffer(cmd, staging.raw, buffer.raw, &[region]) };
@@ -235,7 +236,7 @@ impl Gpu {
     pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &Buffer) -> Result<Vec<T>> {
         let readback = self.create_buffer("readback", BufferDesc::readback(buffer.desc.size))?;
         let result = self
-            .submit_and_wait(|cmd| {
+            .submit_and_wait_labeled("a buffer readback", |cmd| {
                 let region = vk::BufferCopy::default().size(buffer.desc.size);
                 // SAFETY: both buffers are alive until the wait returns.
                 unsafe { self.device.cmd_copy_buffer(cmd, buffer.raw, readback.raw, &[region]) };
@@ -303,7 +304,8 @@ impl Gpu {
         self.set_name(raw, name);
         let image = Image { raw, view, desc, allocation: Some(allocation) };
         // Move to GENERAL once; every later use keeps it there.
-        if let Err(e) = self.submit_and_wait(|cmd| self.cmd_transition_to_general(cmd, &image)) {
+        let label = format!("the first layout transition of image '{name}'");
+        if let Err(e) = self.submit_and_wait_labeled(&label, |cmd| self.cmd_transition_to_general(cmd, &image)) {
             self.destroy_image(image);
             return Err(e);
         }
@@ -332,6 +334,7 @@ impl Gpu {
     }
 
     pub fn destroy_image(&self, mut image: Image) {
+        self.drain();
         // SAFETY: the caller hands the image over by value after the GPU finished with it.
         unsafe {
             self.device.destroy_image_view(image.view, None);
@@ -359,8 +362,9 @@ impl Gpu {
             return Err(GpuError::Other(format!("image '{name}': {} bytes given, {n} expected", bytes.len())));
         }
         let mut staging = self.create_buffer("staging-image", BufferDesc::upload(bytes.len() as u64))?;
+        let label = format!("the upload of image '{name}'");
         let r = staging.write(bytes).and_then(|_| {
-            self.submit_and_wait(|cmd| {
+            self.submit_and_wait_labeled(&label, |cmd| {
                 let region = Self::image_copy_region(&image);
                 // SAFETY: buffer and image alive until the wait; image in GENERAL.
                 unsafe {
@@ -388,7 +392,7 @@ impl Gpu {
     pub fn read_image_bytes(&self, image: &Image) -> Result<Vec<u8>> {
         let readback = self.create_buffer("readback-image", BufferDesc::readback(image.byte_size()))?;
         let r = self
-            .submit_and_wait(|cmd| {
+            .submit_and_wait_labeled("an image readback", |cmd| {
                 let barrier = [vk::MemoryBarrier2::default()
                     .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
                     .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)

@@ -183,7 +183,10 @@ impl Swapchain {
         let loader = gpu.swapchain_device.as_ref().expect("checked in recreate");
         // SAFETY: the acquire semaphore is unsignalled: the previous frame waited on it and
         // that frame's fence was waited for.
-        match unsafe { loader.acquire_next_image(self.swapchain, u64::MAX, self.acquired, vk::Fence::null()) } {
+        // Bounded like every fence wait (watchdog.rs): a compositor that never hands an image back is reported.
+        let timeout = gpu.fence_timeout();
+        let ns = timeout.as_nanos().min(u64::MAX as u128) as u64;
+        match unsafe { loader.acquire_next_image(self.swapchain, ns, self.acquired, vk::Fence::null()) } {
             Ok((index, suboptimal)) => {
                 self.stale |= suboptimal;
                 Ok(Some(SwapchainImage {
@@ -198,6 +201,14 @@ impl Swapchain {
                 self.stale = true;
                 Ok(None)
             }
+            Err(vk::Result::TIMEOUT | vk::Result::NOT_READY) => Err(GpuError::Timeout {
+                submission: "vkAcquireNextImageKHR (waiting for a swapchain image)".into(),
+                seconds: timeout.as_secs_f64(),
+            }),
+            Err(vk::Result::ERROR_DEVICE_LOST) => Err(GpuError::DeviceLost {
+                submission: "vkAcquireNextImageKHR".into(),
+                detail: "reported by the driver".into(),
+            }),
             Err(e) => Err(GpuError::Vk { call: "vkAcquireNextImageKHR", result: e }),
         }
     }

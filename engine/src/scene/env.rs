@@ -81,26 +81,49 @@ fn load_exr(path: &Path) -> Result<LatLongMap> {
     check_exr_headers(&data).map_err(|m| SceneError::invalid(path, format!("not a valid OpenEXR file: {m}")))?;
     // The crate is meant to return errors, but it has panicked on corrupt input before: contain a panic
     // as an error naming the file (sizes are checked above, so nothing here can abort on allocation).
-    let read = std::panic::catch_unwind(|| {
+    //
+    // The resolution the decoder settles on is checked again where it allocates: the header walk above and
+    // the crate's own parser can disagree on a corrupt header (the fuzzer found an 806-byte file, accepted by the
+    // walk, for which the crate asked for 12 TB: tools/fuzz/corpus/exr/abort-12tb-allocation.exr). An
+    // oversized resolution gets no storage (every texel write is then skipped) and is refused after reading.
+    let refused = std::cell::Cell::new(None);
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         read()
             .no_deep_data()
             .largest_resolution_level()
             .rgba_channels(
-                |res: Vec2<usize>, _: &RgbaChannels| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
+                |res: Vec2<usize>, _: &RgbaChannels| match check_size(res.width(), res.height()) {
+                    Ok(()) => (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
+                    Err(m) => {
+                        refused.set(Some(m));
+                        (0, Vec::new())
+                    }
+                },
                 |(w, px): &mut (usize, Vec<[f32; 3]>), pos: Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
-                    px[pos.y() * *w + pos.x()] = [r, g, b];
+                    if let Some(t) = px.get_mut(pos.y() * *w + pos.x()) {
+                        *t = [r, g, b];
+                    }
                 },
             )
             .first_valid_layer()
             .all_attributes()
             .from_buffered(std::io::Cursor::new(&data[..]))
-    });
+    }));
+    if let Some(m) = refused.take() {
+        return Err(SceneError::invalid(path, format!("not a valid OpenEXR file: {m}")));
+    }
     let image = match read {
         Ok(r) => r.map_err(|e| SceneError::invalid(path, format!("not a readable OpenEXR RGB(A) image: {e}")))?,
         Err(_) => return Err(SceneError::invalid(path, "not a readable OpenEXR image (the decoder panicked)")),
     };
     let size = image.layer_data.size;
     let (_, texels) = image.layer_data.channel_data.pixels;
+    if texels.len() != size.width() * size.height() {
+        return Err(SceneError::invalid(
+            path,
+            "not a valid OpenEXR file: the decoder's size disagrees with its pixels",
+        ));
+    }
     Ok(LatLongMap { width: size.width(), height: size.height(), texels })
 }
 
@@ -171,6 +194,11 @@ fn check_exr_headers(data: &[u8]) -> std::result::Result<(), String> {
         let chunks = if let Some((tw, th)) = tiles.filter(|_| tiled || multipart) {
             if tw <= 0 || th <= 0 {
                 return Err(format!("bad tile size {tw}x{th}"));
+            }
+            // The decoder allocates whole tiles: a tile far larger than the image is a decompression bomb, not
+            // a layout (the fuzzer: an 8x4 image in 671 bytes with 4x134217732 tiles cost 1 GiB and 9 s).
+            if tw as i64 > w.max(256) || th as i64 > h.max(256) {
+                return Err(format!("tile size {tw}x{th} larger than the {w}x{h} image (and 256)"));
             }
             (w as u64).div_ceil(tw as u64) * (h as u64).div_ceil(th as u64)
         } else {

@@ -100,9 +100,52 @@ fn check_exists(path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Load every object of an OBJ file as one mesh.
+/// Relative (negative) OBJ indices that reach before the first element, refused before `tobj` sees them: it
+/// adds them to the count unchecked, and `f 1//-11` with one normal overflowed its index arithmetic (a panic
+/// with overflow checks; a wrapped index without). Found by the fuzzer (tools/fuzz/corpus/obj).
+fn check_relative_indices(text: &str) -> std::result::Result<(), String> {
+    let (mut v, mut vt, mut vn) = (0i64, 0i64, 0i64);
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => v += 1,
+            Some("vt") => vt += 1,
+            Some("vn") => vn += 1,
+            Some("f" | "l" | "p") => {
+                for w in words {
+                    for (k, part) in w.split('/').enumerate() {
+                        let count = [v, vt, vn].get(k).copied().unwrap_or(0);
+                        match part.parse::<i64>() {
+                            Ok(i) if i < 0 && i.checked_neg().is_none_or(|m| m > count) => {
+                                return Err(format!(
+                                    "line {}: relative index {i} reaches before the first of {count} elements",
+                                    n + 1
+                                ));
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Load every object of an OBJ file as one mesh. Malformed files are errors naming the file: relative indices
+/// are checked first, and a panic inside the `tobj` parser is contained (as for glTF).
 pub fn load_obj(path: &Path) -> Result<Mesh> {
     check_exists(path)?;
+    let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
+    check_relative_indices(&String::from_utf8_lossy(&bytes))
+        .map_err(|m| SceneError::invalid(path, format!("not a valid OBJ file: {m}")))?;
+    drop(bytes);
+    std::panic::catch_unwind(|| load_obj_unguarded(path))
+        .unwrap_or_else(|_| Err(SceneError::invalid(path, "not a valid OBJ file (the OBJ parser panicked on it)")))
+}
+
+fn load_obj_unguarded(path: &Path) -> Result<Mesh> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, _materials) =
         tobj::load_obj(path, &opts).map_err(|e| SceneError::invalid(path, format!("not a valid OBJ file: {e}")))?;
@@ -201,9 +244,35 @@ fn check_node_forest(doc: &gltf::Document) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// A binary glTF's header (glTF 2.0 §4.4.2: magic, version, total length) checked against the file's own length.
+/// `gltf::import` reads a GLB through `Glb::from_reader`, which allocates the header's length before reading
+/// it: an 18-byte file could ask for 4 GiB (found by the fuzzer, tools/fuzz/corpus/glb). Loading from the bytes
+/// read (`Gltf::from_slice`) with this check first bounds every allocation by the file's size.
+fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let word = |i: usize| bytes.get(i..i + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err(format!("binary glTF header truncated ({} bytes)", bytes.len()));
+    };
+    if version != 2 {
+        return Err(format!("binary glTF version {version} (only 2 is supported)"));
+    }
+    if (length as usize) < 20 || length as usize > bytes.len() {
+        return Err(format!("binary glTF header gives a length of {length} bytes; the file has {}", bytes.len()));
+    }
+    Ok(())
+}
+
 fn load_gltf_unguarded(path: &Path, material_base: usize) -> Result<GltfScene> {
-    let (doc, buffers, _images) =
-        gltf::import(path).map_err(|e| SceneError::invalid(path, format!("not a valid glTF file: {e}")))?;
+    let invalid = |e: String| SceneError::invalid(path, format!("not a valid glTF file: {e}"));
+    let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
+    check_glb_header(&bytes).map_err(invalid)?;
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| invalid(e.to_string()))?;
+    drop(bytes);
+    // Buffers only: the renderer reads no textures, so images (external files too) are not loaded.
+    let buffers = gltf::import_buffers(&doc, path.parent(), blob).map_err(|e| invalid(e.to_string()))?;
     check_node_forest(&doc).map_err(|m| SceneError::invalid(path, format!("not a valid glTF file: {m}")))?;
     let mut out = GltfScene::default();
     for m in doc.materials() {

@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod bench;
+mod fuzz;
 mod report;
+mod soak;
 mod tables;
 
 const APT_PACKAGES: &[&str] = &[
@@ -39,6 +41,8 @@ commands:
   report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)
   bench [bench args] per-pass GPU times of every scene × technique × rate into out/bench (`bench --help`)
   bench-package      the bench as a folder + .tar.gz for a machine without Rust (`bench-package --help`)
+  soak [--frames N]  N animated frames (default 10000), every technique in turn: memory must stay flat (--help)
+  fuzz TARGET|all    mutation-fuzz a loader (obj gltf glb exr hdr spheres) [--runs N] [--seconds S]
   help, -h, --help   print this text";
 
 /// A usage error: the text on stderr, exit status 2 (what command-line tools use for bad usage).
@@ -61,6 +65,8 @@ fn main() {
         "report" => setup().and_then(|_| report::run(rest)),
         "bench" => setup().and_then(|_| bench::bench(rest)),
         "bench-package" => setup().and_then(|_| bench::package(rest)),
+        "soak" => setup().and_then(|_| soak::run(rest)),
+        "fuzz" => fuzz::run(rest),
         // Asking for help is not an error: the text on stdout, status 0.
         "-h" | "--help" | "help" => {
             println!("{USAGE}");

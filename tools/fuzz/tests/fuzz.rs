@@ -1,0 +1,68 @@
+//! The fuzz targets in the test suite: every seed loads, every regression input in corpus/ is refused with an
+//! error (no panic, allocation or time over the bounds), and a short bounded mutation run per loader finds
+//! nothing. Long runs: `cargo xtask fuzz TARGET --runs N`.
+
+use engine_fuzz::{check, corpus, execute, CountingAlloc, Driver, TARGETS};
+use std::time::Duration;
+
+#[global_allocator]
+static ALLOC: CountingAlloc = CountingAlloc;
+
+/// Seconds of mutation per target in the suite (six targets: ~12 s in all).
+const SUITE_SECONDS: f64 = 2.0;
+
+fn work_dir(name: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("engine-fuzz-test-{}-{name}", std::process::id()))
+}
+
+#[test]
+fn every_seed_loads() {
+    engine_fuzz::quiet_panics();
+    for t in TARGETS {
+        let dir = work_dir(&format!("seeds-{}", t.name));
+        std::fs::create_dir_all(&dir).unwrap();
+        let seeds = (t.seeds)();
+        assert!(!seeds.is_empty(), "{}: no seeds", t.name);
+        for (i, s) in seeds.iter().enumerate() {
+            let p = dir.join(format!("seed{i}.{}", t.ext));
+            std::fs::write(&p, s).unwrap();
+            let r = (t.run)(&p);
+            assert!(r.is_ok(), "{} seed {i} does not load: {:?}", t.name, r);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[test]
+fn regression_corpus_is_refused_within_bounds() {
+    assert!(engine_fuzz::counting(), "the counting allocator is not installed");
+    let mut total = 0;
+    for t in TARGETS {
+        let dir = work_dir(&format!("corpus-{}", t.name));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (path, bytes) in corpus(t).unwrap() {
+            let p = dir.join(format!("input.{}", t.ext));
+            std::fs::write(&p, &bytes).unwrap();
+            let o = execute(t, &p);
+            assert!(check(&o).is_none(), "{}: {:?} {:?}", path.display(), check(&o), o);
+            assert!(!o.loaded, "{}: loads; a regression input is one the loader must refuse", path.display());
+            total += 1;
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    assert!(total >= 5, "only {total} regression inputs");
+}
+
+#[test]
+fn a_short_run_of_every_target_finds_nothing() {
+    for t in TARGETS {
+        let dir = work_dir(&format!("run-{}", t.name));
+        let mut d = Driver::new(t, &dir, 0x5eed).unwrap();
+        let stats = d.run(u64::MAX, Some(Duration::from_secs_f64(SUITE_SECONDS)), |_| {}).unwrap();
+        eprintln!("{}", stats.summary(t.name));
+        assert!(stats.executions >= 20, "{}: {} executions", t.name, stats.executions);
+        assert!(stats.loaded > 0 && stats.rejected > 0, "{}: {stats:?}", t.name);
+        assert!(stats.findings.is_empty(), "{}: {:?} (inputs kept in {})", t.name, stats.findings, dir.display());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
