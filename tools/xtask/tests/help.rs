@@ -3,7 +3,8 @@
 
 use std::process::Command;
 
-const COMMANDS: &[&str] = &["demo", "test", "bless", "setup", "spheres", "tables", "report", "bench", "bench-package", "soak", "fuzz"];
+const COMMANDS: &[&str] =
+    &["demo", "test", "bless", "setup", "spheres", "tables", "report", "bench", "bench-package", "soak", "fuzz"];
 
 fn xtask(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_xtask")).args(args).output().expect("running xtask")
