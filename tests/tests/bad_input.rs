@@ -112,7 +112,7 @@ fn no_vulkan_device_is_a_clear_error() {
 fn gltf_hierarchy_and_materials() {
     // A minimal glTF: one triangle, two nodes (parent translation, child scale), a metallic material.
     let bin: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let uri = format!("data:application/octet-stream;base64,{}", base64::encode(&bin));
     let json = format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
         "nodes":[{{"translation":[0,2,0],"children":[1]}},{{"scale":[2,2,2],"mesh":0}}],
@@ -130,21 +130,4 @@ fn gltf_hierarchy_and_materials() {
     assert!((world - Vec3::new(2.0, 2.0, 0.0)).length() < 1e-6, "{world}");
     assert_eq!(g.materials[0].diffuse, Vec3::ZERO);
     assert_eq!(g.materials[0].specular, Vec3::new(1.0, 0.0, 0.0));
-}
-
-fn base64(data: &[u8]) -> String {
-    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(T[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
 }

@@ -139,19 +139,6 @@ fn mutated_exr_headers_never_crash() {
     assert!(err > 0 && ok > 0);
 }
 
-/// Standard base64 (RFC 4648 §4) for the embedded buffer.
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in bytes.chunks(3) {
-        let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
-        }
-    }
-    out
-}
-
 /// Triangles in the embedded buffer: enough that copying the mesh on every visit of a cycle (what the old
 /// loader did, up to a million times) is far slower than the 2 s allowed.
 const TRIANGLES: usize = 1000;
@@ -165,7 +152,7 @@ fn gltf(nodes: &str, accessors: &str, position: usize) -> Vec<u8> {
             buffer.extend(v.iter().flat_map(|x| x.to_le_bytes()));
         }
     }
-    let (len, uri) = (buffer.len(), base64(&buffer));
+    let (len, uri) = (buffer.len(), base64::encode(&buffer));
     format!(
         r#"{{
   "asset": {{ "version": "2.0" }},
@@ -233,6 +220,27 @@ fn malformed_gltf_is_an_error_naming_the_file() {
     ];
     for (name, bytes, what) in cases {
         let p = tmp(&format!("{name}.gltf"), &bytes);
+        let err = quick(name, || load_gltf(&p, 0)).unwrap_err();
+        eprintln!("{name}: {err}");
+        assert_err_names(&err, &p, what);
+    }
+}
+
+/// An external buffer must be a regular file at least `byteLength` long: a `uri` of `/dev/zero` used to be read
+/// without end (the decoder reads the named file whole).
+#[test]
+fn gltf_external_buffers_must_be_regular_files_of_their_length() {
+    let good = String::from_utf8(gltf(r#"[ { "mesh": 0 } ]"#, &good_accessor(), 0)).unwrap();
+    let start = good.find("\"uri\": \"data:").unwrap() + "\"uri\": \"".len();
+    let end = start + good[start..].find('"').unwrap();
+    let short = tmp("short-buffer.bin", &[0u8; 12]);
+    for (name, uri, what) in [
+        ("dev-zero", "/dev/zero".to_string(), "not a regular file"),
+        ("dir", std::env::temp_dir().display().to_string(), "not a regular file"),
+        ("short", short.display().to_string(), "byteLength"),
+    ] {
+        let text = format!("{}{}{}", &good[..start], uri, &good[end..]);
+        let p = tmp(&format!("external-{name}.gltf"), text.as_bytes());
         let err = quick(name, || load_gltf(&p, 0)).unwrap_err();
         eprintln!("{name}: {err}");
         assert_err_names(&err, &p, what);

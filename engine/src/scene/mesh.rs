@@ -265,6 +265,48 @@ fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// The largest external buffer file a glTF may name (the engine keeps every mesh in memory twice at most).
+const MAX_GLTF_BUFFER_BYTES: u64 = 4 << 30;
+
+/// External buffers (`"uri": "file.bin"`) must be regular files no larger than [`MAX_GLTF_BUFFER_BYTES`] and at
+/// least as long as the buffer's `byteLength`: `gltf::import_buffers` reads the named file whole, so a `uri` of
+/// `/dev/zero` (or a FIFO) would be read without end. Data URIs are bounded by the file already read.
+fn check_external_buffers(doc: &gltf::Document, dir: Option<&Path>) -> std::result::Result<(), String> {
+    for b in doc.buffers() {
+        let gltf::buffer::Source::Uri(uri) = b.source() else { continue };
+        if uri.starts_with("data:") {
+            continue;
+        }
+        // glTF URIs are relative references (§3.2: percent-encoded); the common unencoded case is checked here,
+        // an encoded name the decoder resolves differently is still read by it only if it is a regular file.
+        let file = std::path::Path::new(uri);
+        let full = if file.is_absolute() { file.to_path_buf() } else { dir.unwrap_or(Path::new(".")).join(file) };
+        let meta = match std::fs::metadata(&full) {
+            Ok(m) => m,
+            Err(_) => continue, // missing: the decoder reports it with the buffer's name
+        };
+        if !meta.is_file() {
+            return Err(format!("buffer {} names '{uri}', which is not a regular file", b.index()));
+        }
+        if meta.len() > MAX_GLTF_BUFFER_BYTES {
+            return Err(format!(
+                "buffer {} file '{uri}' is {} bytes (at most {MAX_GLTF_BUFFER_BYTES})",
+                b.index(),
+                meta.len()
+            ));
+        }
+        if meta.len() < b.length() as u64 {
+            return Err(format!(
+                "buffer {} file '{uri}' has {} bytes; its byteLength is {}",
+                b.index(),
+                meta.len(),
+                b.length()
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn load_gltf_unguarded(path: &Path, material_base: usize) -> Result<GltfScene> {
     let invalid = |e: String| SceneError::invalid(path, format!("not a valid glTF file: {e}"));
     let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
@@ -272,6 +314,7 @@ fn load_gltf_unguarded(path: &Path, material_base: usize) -> Result<GltfScene> {
     let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| invalid(e.to_string()))?;
     drop(bytes);
     // Buffers only: the renderer reads no textures, so images (external files too) are not loaded.
+    check_external_buffers(&doc, path.parent()).map_err(invalid)?;
     let buffers = gltf::import_buffers(&doc, path.parent(), blob).map_err(|e| invalid(e.to_string()))?;
     check_node_forest(&doc).map_err(|m| SceneError::invalid(path, format!("not a valid glTF file: {m}")))?;
     let mut out = GltfScene::default();

@@ -32,23 +32,6 @@ pub fn obj() -> Vec<Vec<u8>> {
     out
 }
 
-fn base64(data: &[u8]) -> String {
-    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(T[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// The binary buffer of the glTF seeds: 4 positions, 4 normals, 6 u16 indices (two triangles).
 fn gltf_buffer() -> Vec<u8> {
     let pos = [0f32, 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.];
@@ -77,7 +60,7 @@ fn gltf_json(buffer: &str) -> String {
 /// glTF: a two-level node hierarchy (translation/rotation/scale and a matrix), normals, u16 indices, a
 /// material; the buffer as a data URI.
 pub fn gltf() -> Vec<Vec<u8>> {
-    let uri = format!(r#","uri":"data:application/octet-stream;base64,{}""#, base64(&gltf_buffer()));
+    let uri = format!(r#","uri":"data:application/octet-stream;base64,{}""#, base64::encode(gltf_buffer()));
     vec![gltf_json(&uri).into_bytes()]
 }
 
