@@ -184,45 +184,29 @@ pub fn run(gpu: &Gpu, plan: &BenchPlan) -> Result<(Vec<Row>, Vec<Skipped>)> {
                     height,
                     reason,
                 };
-                let first = &plan.techniques[0];
-                let settings = RenderSettings { width, height, technique: first.clone(), per_vertex, exposure: 1.0 };
-                let mut renderer = match Renderer::new(gpu, &scene, settings) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        // The first technique refused the scene; try the others one by one below.
-                        let mut made = None;
-                        skipped.push(skip(first, e.to_string()));
-                        for t in &plan.techniques[1..] {
-                            let s = RenderSettings { width, height, technique: t.clone(), per_vertex, exposure: 1.0 };
-                            match Renderer::new(gpu, &scene, s) {
-                                Ok(r) => {
-                                    made = Some(r);
-                                    break;
-                                }
-                                Err(e) => skipped.push(skip(t, e.to_string())),
-                            }
-                        }
-                        match made {
-                            Some(r) => r,
-                            None => continue,
-                        }
-                    }
-                };
+                // One renderer per group, made by the first technique that accepts the scene; the others are
+                // switched on it. A technique that refuses the scene is listed with its reason.
+                let mut renderer: Option<Renderer> = None;
                 let result = (|| -> Result<()> {
                     for technique in &plan.techniques {
-                        if skipped.iter().any(|s| {
-                            s.scene == *scene_name
-                                && s.technique == *technique
-                                && s.per_vertex == per_vertex
-                                && (s.width, s.height) == (width, height)
-                        }) {
+                        let made = match renderer.as_mut() {
+                            Some(r) => r.set_technique(gpu, technique),
+                            None => {
+                                let settings = RenderSettings {
+                                    width,
+                                    height,
+                                    technique: technique.clone(),
+                                    per_vertex,
+                                    exposure: 1.0,
+                                };
+                                Renderer::new(gpu, &scene, settings).map(|r| renderer = Some(r))
+                            }
+                        };
+                        let Some(r) = renderer.as_mut().filter(|_| made.is_ok()) else {
+                            skipped.push(skip(technique, made.err().map_or_else(String::new, |e| e.to_string())));
                             continue;
-                        }
-                        if let Err(e) = renderer.set_technique(gpu, technique) {
-                            skipped.push(skip(technique, e.to_string()));
-                            continue;
-                        }
-                        let row = measure(gpu, &mut renderer, plan, animation.as_ref(), scene_name, technique)?;
+                        };
+                        let row = measure(gpu, r, plan, animation.as_ref(), scene_name, technique)?;
                         let done = rows.len() + skipped.len() + 1;
                         eprintln!(
                             "[{done}/{total}] {} {} per {} {}x{}: frame {:.3} ms median ({:.1} fps), shade {:.3} ms \
@@ -241,7 +225,9 @@ pub fn run(gpu: &Gpu, plan: &BenchPlan) -> Result<(Vec<Row>, Vec<Skipped>)> {
                     }
                     Ok(())
                 })();
-                renderer.destroy(gpu);
+                if let Some(r) = renderer {
+                    r.destroy(gpu);
+                }
                 result?;
             }
         }

@@ -50,6 +50,40 @@ fn smoke_run_writes_every_file_with_every_row() {
     std::fs::remove_dir_all(&out).unwrap();
 }
 
+/// A technique spec that the technique refuses at creation (an option out of range) is listed under "Not
+/// measured" with its reason, and the next technique still gets a renderer (here the refused one comes first).
+#[test]
+fn a_refused_technique_is_listed_and_the_rest_measured() {
+    let out = std::env::temp_dir().join(format!("bench-refused-{}", std::process::id()));
+    let o = out.to_str().unwrap();
+    let args = [
+        "--scene",
+        "sphere",
+        "--technique",
+        "isg:patches=999",
+        "--technique",
+        "none",
+        "--rate",
+        "pixel",
+        "--size",
+        "8x6",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--out",
+        o,
+    ];
+    let run = bench(&args);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
+    assert!(md.contains("Not measured:") && md.contains("- sphere isg:patches=999 per pixel 8×6:"), "{md}");
+    assert!(md.contains("patches"), "the reason names the option: {md}");
+    assert_eq!(md.lines().filter(|l| l.starts_with("| sphere | none | pixel |")).count(), 1, "{md}");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
 #[test]
 fn bad_arguments_are_refused_before_the_gpu() {
     let missing = std::env::temp_dir().join("bench-no-such-earlier-run.csv");
