@@ -30,9 +30,73 @@ pub fn exit_on_error(result: anyhow::Result<()>) {
     }
 }
 
-/// Set the specular BRDF of material 0 from a `--brdf` spec
-/// ([`engine::scene::Material::apply_brdf_spec`]).
+/// The materials `--brdf` and the viewer's `B` key change: every glossy material of the scene (k_s > 0, e.g.
+/// chess's white and black pieces), or material 0 when none is glossy.
+pub fn brdf_materials(scene: &Scene) -> Vec<usize> {
+    let glossy: Vec<usize> =
+        scene.materials.iter().enumerate().filter(|(_, m)| m.specular.max_element() > 0.0).map(|(i, _)| i).collect();
+    if glossy.is_empty() && !scene.materials.is_empty() {
+        vec![0]
+    } else {
+        glossy
+    }
+}
+
+/// Set the specular BRDF of the scene's [`brdf_materials`] from a `--brdf` spec
+/// ([`engine::scene::Material::apply_brdf_spec`]; keys not given keep each material's values).
 pub fn apply_brdf(scene: &mut Scene, spec: &str) -> anyhow::Result<()> {
-    let m = scene.materials.first_mut().ok_or_else(|| anyhow::anyhow!("--brdf: the scene has no material"))?;
-    m.apply_brdf_spec(spec).map_err(anyhow::Error::msg)
+    let targets = brdf_materials(scene);
+    if targets.is_empty() {
+        anyhow::bail!("--brdf: the scene has no material");
+    }
+    for i in targets {
+        scene.materials[i].apply_brdf_spec(spec).map_err(anyhow::Error::msg)?;
+    }
+    Ok(())
+}
+
+/// The BRDFs the viewer's `B` key steps through after the scene's own: diffuse, highly specular,
+/// anisotropic, microfacet (ISG Fig. 7's range).
+pub const BRDF_PRESETS: &[(&str, &str)] = &[
+    ("diffuse", "blinn-phong:ks=0"),
+    ("Blinn-Phong s=1000", "blinn-phong:s=1000,ks=0.5"),
+    ("Ashikhmin-Shirley nu=1000 nv=10", "ashikhmin-shirley:nu=1000,nv=10,ks=0.5"),
+    ("Cook-Torrance GGX 0.2", "cook-torrance:roughness=0.2,ndf=ggx,ks=0.5"),
+];
+
+/// The viewer's BRDF switch: the scene's own materials, then each of [`BRDF_PRESETS`] applied to its
+/// [`brdf_materials`] (chosen once, from the scene as built), then the scene's own again.
+#[derive(Clone, Debug)]
+pub struct BrdfCycle {
+    own: Vec<engine::scene::Material>,
+    targets: Vec<usize>,
+    /// 0: the scene's own; k: preset k − 1.
+    step: usize,
+}
+
+impl BrdfCycle {
+    pub fn new(scene: &Scene) -> Self {
+        Self { own: scene.materials.clone(), targets: brdf_materials(scene), step: 0 }
+    }
+
+    /// What the current step shows.
+    pub fn label(&self) -> &'static str {
+        if self.step == 0 {
+            "scene's own"
+        } else {
+            BRDF_PRESETS[self.step - 1].0
+        }
+    }
+
+    /// Advance one step and return the materials to upload (every preset parses: checked by a test).
+    pub fn step(&mut self) -> anyhow::Result<Vec<engine::scene::Material>> {
+        self.step = (self.step + 1) % (BRDF_PRESETS.len() + 1);
+        let mut materials = self.own.clone();
+        if self.step > 0 {
+            for &i in &self.targets {
+                materials[i].apply_brdf_spec(BRDF_PRESETS[self.step - 1].1).map_err(anyhow::Error::msg)?;
+            }
+        }
+        Ok(materials)
+    }
 }

@@ -81,7 +81,7 @@ struct Args {
     capture: Option<u32>,
     #[arg(long, help = demos::scenes::animate_help())]
     animate: bool,
-    /// Specular BRDF of material 0 (the bunny, sphere, plane or arm), `MODEL[:key=value,...]`
+    /// Specular BRDF of the scene's glossy materials (k_s > 0; material 0 if none is glossy), `MODEL[:key=value,...]`
     /// (`--help` lists the models and their keys).
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
@@ -132,7 +132,8 @@ fn parse_args() -> Args {
         engine::passes::shade::techniques_help()
     );
     let brdf_help = format!(
-        "Specular BRDF of material 0 (the bunny, sphere, plane or arm), MODEL[:key=value,...]; keys not \
+        "Specular BRDF of the scene's glossy materials (k_s > 0; material 0 if none is glossy: the bunny, the \
+         chess pieces, the sphere, the arm), MODEL[:key=value,...]; keys not \
          given keep the material's values:\n{}",
         engine::scene::brdf_help()
     );
@@ -318,7 +319,11 @@ fn drive(
             el,
             gpu,
             renderer,
-            demos::viewer::ViewerOptions { exit_after: args.exit_after.unwrap_or(0), animation },
+            demos::viewer::ViewerOptions {
+                exit_after: args.exit_after.unwrap_or(0),
+                animation,
+                brdf: demos::BrdfCycle::new(scene),
+            },
         ),
         None => match args.capture {
             Some(n) => demos::capture::run(

@@ -78,7 +78,7 @@ pub struct SceneSpec {
     /// k_s of material 0.
     #[serde(default)]
     pub ks: Option<f32>,
-    /// Specular BRDF of material 0 as `demo --brdf` takes it (applied after gloss/ks).
+    /// Specular BRDF of the glossy materials as `demo --brdf` takes it (applied after gloss/ks).
     #[serde(default)]
     pub brdf: Option<String>,
     /// Shading rates for this scene instead of the sweep's.

@@ -5,7 +5,7 @@
 //! Per frame it does what the viewer does (demos/src/viewer.rs `App::redraw` and `App::key`): move the camera
 //! (an orbit, like a mouse drag), pose the scene's animation, render, and at intervals switch the technique
 //! (the `T` key: `Renderer::set_technique`, which destroys the old technique and prepares the next) and the
-//! shading rate (the `V` key). The only difference is the target: `Renderer::render` (an offscreen frame)
+//! shading rate (the `V` key), and the BRDF with each technique switch (the `B` key: `Renderer::set_materials`). The only difference is the target: `Renderer::render` (an offscreen frame)
 //! instead of `render_presenting` (the same frame plus a blit to the swapchain image).
 //!
 //! The run is a repeated *cycle*: for every scene, every registered technique, `switch_every` frames (half per
@@ -236,7 +236,7 @@ pub fn run(gpu: &Gpu, options: &SoakOptions) -> Result<SoakReport> {
             exposure: 1.0,
         };
         let renderer = Renderer::new(gpu, &scene, settings).with_context(|| format!("soak: scene '{name}'"))?;
-        scenes.push((entry.name, animation, renderer.camera()));
+        scenes.push((entry.name, animation, renderer.camera(), crate::BrdfCycle::new(&scene)));
         renderers.list.push(renderer);
     }
     let mut report = SoakReport {
@@ -260,7 +260,7 @@ pub fn run(gpu: &Gpu, options: &SoakOptions) -> Result<SoakReport> {
         let scene_index = (in_cycle / per_scene) as usize;
         let technique_index = ((in_cycle % per_scene) / options.switch_every) as usize;
         let k = in_cycle % options.switch_every;
-        let (name, animation, home) = &scenes[scene_index];
+        let (name, animation, home, brdf) = &mut scenes[scene_index];
         let renderer = &mut renderers.list[scene_index];
         let technique = TECHNIQUES[technique_index].name;
         if renderer.technique_name() != technique {
@@ -268,6 +268,9 @@ pub fn run(gpu: &Gpu, options: &SoakOptions) -> Result<SoakReport> {
             renderer.set_technique(gpu, technique).with_context(|| format!("soak: '{name}' to {technique}"))?;
             report.prepare_seconds += tp.elapsed().as_secs_f64();
             report.switches += 1;
+            // And the BRDF, as the `B` key does (a material upload: its staging buffer must not stay alive).
+            let materials = brdf.step()?;
+            renderer.set_materials(gpu, &materials).with_context(|| format!("soak: '{name}' BRDF {}", brdf.label()))?;
         }
         renderer.settings.per_vertex = k >= options.switch_every / 2;
         renderer.set_camera(orbit(*home, 0.01 * frame as f32));

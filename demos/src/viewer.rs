@@ -2,7 +2,9 @@
 //! keys to switch technique and shading rate; per-pass GPU times in the title.
 //!
 //! Controls: left mouse drag orbits, wheel zooms, `T`/`Tab` cycles techniques, `V` toggles
-//! per-vertex/per-pixel shading, `+`/`-` change exposure, `R` resets the camera, `Esc`/`Q` quits.
+//! per-vertex/per-pixel shading, `B` steps the glossy materials' BRDF (the scene's own, diffuse, Blinn-Phong
+//! s = 1000, anisotropic Ashikhmin-Shirley, Cook-Torrance GGX: [`crate::BRDF_PRESETS`]), `+`/`-` change
+//! exposure, `R` resets the camera, `Esc`/`Q` quits.
 //! The scene renders at the requested resolution and is scaled to the window.
 
 use anyhow::{Context, Result};
@@ -28,6 +30,9 @@ pub struct ViewerOptions {
     pub exit_after: u64,
     /// Motion to apply every frame from the viewer's clock (`--animate`).
     pub animation: Option<crate::Animation>,
+    /// The `B` key's BRDF cycle over the scene's glossy materials ([`crate::BrdfCycle::new`] of the scene
+    /// the renderer was built from).
+    pub brdf: crate::BrdfCycle,
 }
 
 /// The event loop of a display, and the instance extensions its windows need. Create it before
@@ -230,6 +235,11 @@ impl App<'_> {
             Key::Character(c) => match c.as_str() {
                 "q" | "Q" => el.exit(),
                 "t" | "T" => self.next_technique()?,
+                "b" | "B" => {
+                    let materials = self.options.brdf.step()?;
+                    self.renderer.set_materials(self.gpu, &materials)?;
+                    eprintln!("viewer: BRDF {}", self.options.brdf.label());
+                }
                 "v" | "V" => {
                     let s = &mut self.renderer.settings;
                     s.per_vertex = !s.per_vertex;

@@ -270,6 +270,30 @@ impl Renderer {
         self.scene.geometry.bones.write(&cols)
     }
 
+    /// Replace the scene's materials from the next frame on (the viewer's BRDF switch): as many as the scene
+    /// was built with, each checked as at upload. Rewrites the device-local material buffer through a staging
+    /// copy (one transient allocation: an event, not a steady frame) and tells the technique
+    /// ([`Technique::materials_changed`]).
+    pub fn set_materials(&mut self, gpu: &Gpu, materials: &[crate::scene::Material]) -> Result<()> {
+        use crate::resources::layout::GpuMaterial;
+        let count = self.scene.materials.desc.size as usize / std::mem::size_of::<GpuMaterial>();
+        if materials.len() != count {
+            return Err(GpuError::Other(format!(
+                "{} materials given, the scene has {count} (set_materials replaces them one for one)",
+                materials.len()
+            )));
+        }
+        let gpu_materials: Vec<GpuMaterial> = materials.iter().map(GpuMaterial::from_material).collect();
+        if let Some(i) =
+            gpu_materials.iter().position(|m| !bytemuck::cast_slice::<_, f32>(&[*m]).iter().all(|x| x.is_finite()))
+        {
+            return Err(GpuError::Other(format!("material {i} has a non-finite parameter")));
+        }
+        gpu.copy_to_buffer(&self.scene.materials, bytemuck::cast_slice(&gpu_materials))?;
+        self.technique.materials_changed();
+        Ok(())
+    }
+
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
         self.render_to(gpu, None)

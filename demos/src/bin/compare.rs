@@ -38,7 +38,7 @@ struct Args {
     /// Override k_s of material 0.
     #[arg(long)]
     ks: Option<f32>,
-    /// Specular BRDF of material 0 (applied after --gloss/--ks), as `demo --brdf`:
+    /// Specular BRDF of the glossy materials (applied after --gloss/--ks), as `demo --brdf`:
     /// `cook-torrance:roughness=0.1,ks=0.5`, `ashikhmin-shirley:nu=1000,nv=100,ks=0.5`, ….
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,

@@ -16,8 +16,8 @@
 //!
 //! The checker pattern: the materials have no textures, so the light and the dark squares are two meshes with
 //! two materials, at y = 0; under them a larger ground (the table, a third material) at y = −0.002 is the plane
-//! blocker. `--brdf` changes material 0, the white pieces (diffuse to Blinn-Phong s = 1000+, Cook-Torrance,
-//! Ashikhmin–Shirley). The engine has no environment rotation, so the environment stays fixed.
+//! blocker. `--brdf` and the viewer's `B` key change the glossy materials 0 and 1, the white and black pieces
+//! (diffuse to Blinn-Phong s = 1000+, Cook-Torrance, Ashikhmin–Shirley). The engine has no environment rotation, so the environment stays fixed.
 
 use super::{shapes, Motion, Pose, Rest, SceneEntry, SceneInputs};
 use engine::blockers::Sphere;
@@ -454,7 +454,7 @@ fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
     Ok(Scene {
         meshes,
         materials: vec![
-            // Material 0 (what --brdf changes): the white pieces, ivory with a Blinn-Phong gloss.
+            // Materials 0 and 1 (what --brdf changes: the glossy ones): the pieces, with a Blinn-Phong gloss.
             Material::glossy(Vec3::new(0.80, 0.74, 0.62), 0.2, 300.0),
             Material::glossy(Vec3::new(0.05, 0.045, 0.04), 0.2, 300.0),
             Material::diffuse(Vec3::new(0.72, 0.62, 0.45)),

@@ -192,6 +192,10 @@ pub trait Technique {
     /// Record shading into `target`.
     fn record(&self, rec: &mut Recorder, inputs: &ShadeInputs, target: ShadeTarget) -> Result<()>;
     fn destroy(self: Box<Self>, gpu: &Gpu);
+    /// The scene's materials were rewritten ([`crate::renderer::Renderer::set_materials`]): drop whatever was
+    /// derived from them (the reference discards its accumulated samples). Techniques that read the materials
+    /// only per shading point need nothing.
+    fn materials_changed(&mut self) {}
     /// Technique-specific controls (e.g. the reference's sample counts), reached by downcasting.
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None

@@ -672,6 +672,11 @@ impl Technique for Reference {
         this.pipelines.destroy(gpu);
     }
 
+    /// Samples accumulated under the old materials belong to another image.
+    fn materials_changed(&mut self) {
+        self.reset();
+    }
+
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         Some(self)
     }
