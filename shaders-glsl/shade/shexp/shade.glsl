@@ -45,7 +45,7 @@ struct ShexpParams {
     uint gamma_count;      // entries of the Γ table
     uint diffuse_mode;     // 0 sh, 1 ratio
     float large_u;         // u = 1 − cos θ above which a sphere multiplies its visibility (large=product; 2: never)
-    uint pad0;
+    uint accumulate;       // 0 log (the paper), 1 product (Zhou et al. 2005: every sphere multiplies g)
     uint pad1;
     uint pad2;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
@@ -81,12 +81,21 @@ uint g_blockers;
 #define SHEXP_MAX_LARGE 4
 vec4 g_large[SHEXP_MAX_LARGE];  // (axis, u)
 uint g_large_count;
+// accumulate=product: the running product of the spheres' projected visibilities (g_blockers of them).
+float g_prod[SHN_C];
+
+void shexp_multiply_circle_visibility(inout float g[SHN_C], float u, vec3 axis, bool g_is_one);
 
 void shexp_visit(vec4 s) {
     vec4 b;
     if (!blocker_for_receiver(g_p, g_n, s, b)) return;
     float u = shn_sphere_u(g_p, b);
     if (!(u > 0.0)) return;
+    if (shx.accumulate == 1u) {
+        shexp_multiply_circle_visibility(g_prod, u, b.xyz - g_p, g_blockers == 0u);
+        g_blockers += 1u;
+        return;
+    }
     if (u > shx.large_u && g_large_count < uint(SHEXP_MAX_LARGE)) {
         g_large[g_large_count] = vec4(b.xyz - g_p, u);
         g_large_count += 1u;
@@ -189,6 +198,8 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
     bool one = g_blockers == 0u;
     if (one) {
         g[0] = SHN_SQRT_4PI;
+    } else if (shx.accumulate == 1u) {
+        g = g_prod;
     } else if (shx.exp_method == 1u) {
         shn_exp_ol(g_log, g);
     } else if (shx.exp_method == 2u) {

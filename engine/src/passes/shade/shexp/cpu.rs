@@ -92,23 +92,12 @@ impl Twin {
         let mut f = vec![0.0; c];
         let mut count = 0;
         let mut large = Vec::new();
-        for s in spheres {
-            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
-            let d = b.center.distance(p);
-            if b.radius <= 0.0 {
-                continue;
-            }
-            let u = if d <= b.radius {
-                1.0
-            } else {
-                let s = b.radius / d;
-                s * s / (1.0 + (1.0 - s * s).max(0.0).sqrt())
-            };
+        for (u, axis) in spheres.iter().filter_map(|s| sphere_circle(p, n, s)) {
             if u > self.large_u && large.len() < MAX_LARGE {
-                large.push((u, b.center - p));
+                large.push((u, axis));
                 continue;
             }
-            self.add_circle(&mut f, u, b.center - p);
+            self.add_circle(&mut f, u, axis);
             count += 1;
         }
         (f, count, large)
@@ -155,6 +144,9 @@ impl Twin {
     /// The visibility vector at `p` (exactly 1 without blockers, as the shader): the exponential of the
     /// spheres' summed log, times the exact projection of each plane's circle visibility.
     pub fn visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> (Vec<f64>, usize) {
+        if self.options.accumulate_product {
+            return self.product_visibility(p, n, spheres, planes);
+        }
         let (f, mut count, large) = self.log_visibility_split(p, n, spheres);
         let mut g = if count == 0 {
             let mut g = vec![0.0; f.len()];
@@ -174,6 +166,25 @@ impl Twin {
         (g, count)
     }
 
+    /// `accumulate=product`: g multiplied by every sphere's (in list order: the GPU's is the BVH's, and
+    /// truncated products are not associative, so the twin matches it for up to two spheres per receiver),
+    /// then by each plane's, projected visibility.
+    fn product_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> (Vec<f64>, usize) {
+        let order = self.options.order;
+        let mut circles: Vec<(f64, DVec3)> = spheres.iter().filter_map(|s| sphere_circle(p, n, s)).collect();
+        circles.extend(self.plane_circles(p, planes));
+        let mut g = vec![0.0; order * order];
+        g[0] = SQRT_4PI;
+        for (k, (u, axis)) in circles.iter().enumerate() {
+            let v = circle_visibility(order, theta_of_u(*u), axis.to_array());
+            g = if k == 0 { v } else { self.tensor.product(&g, &v) };
+        }
+        if !g.iter().all(|v| v.is_finite()) {
+            g.iter_mut().for_each(|v| *v = 0.0);
+        }
+        (g, circles.len())
+    }
+
     /// Diffuse radiance `ρ max(L·(H(N) * g), 0)` (`diffuse=sh`) and the unshadowed `L·H(N)` per channel.
     pub fn shade_diffuse(
         &self,
@@ -191,6 +202,23 @@ impl Twin {
         let free = [0, 1, 2].map(|c| dot(&self.env[c], &h));
         (shaded, free)
     }
+}
+
+/// The circle a sphere blocks at receiver `p` (normal `n`) after the §6.2 rules: (u = 1 − cos θ, axis to its
+/// centre), `None` when culled or of no radius (shn_sphere_u in shexp_n.glsl; u = 1 inside it).
+fn sphere_circle(p: DVec3, n: DVec3, s: &Sphere) -> Option<(f64, DVec3)> {
+    let b = blocker_for_receiver(p, n, s)?;
+    if b.radius <= 0.0 {
+        return None;
+    }
+    let d = b.center.distance(p);
+    let u = if d <= b.radius {
+        1.0
+    } else {
+        let s = b.radius / d;
+        s * s / (1.0 + (1.0 - s * s).max(0.0).sqrt())
+    };
+    Some((u, b.center - p))
 }
 
 /// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom–Strackee).

@@ -9,6 +9,10 @@
 //! the visibility by the exact order-n projection of their visibility (not a log: the clipped log of
 //! a hemisphere-sized circle darkens an upward receiver by 7 % at n = 4): a half-space exactly, a
 //! rectangle as a circle of the same solid angle about its cone's mean direction (Arvo's ½ Σ Θ_e n_e).
+//! `accumulate=product` is the paper's speed baseline (Fig. 8, after Zhou et al. 2005): every sphere
+//! multiplies g by its exact order-n projected visibility through the triple-product tensor Γ, no log and
+//! no exponential (order-n truncation at every product, and not associative: the result depends on the
+//! BVH's visit order).
 //!
 //! Shading: diffuse `ρ L·(H(N) * g)` with L the environment's order-n projection windowed by
 //! cos(π/2 · l/h) (§7), H(N) the clamped cosine rotated to N (a ZH rotation per receiver, no table);
@@ -87,6 +91,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("product"),
         help: "spheres past the log's eigenvalue clip (θ > θ_clip): product (ours: multiply g by their exact projected visibility, ≤ 4 per receiver) or log (the paper: add their clipped log)",
     },
+    OptionSpec {
+        key: "accumulate",
+        aliases: &[],
+        kind: Kind::Choice(&["log", "product"]),
+        default: Some("log"),
+        help: "log (the paper: sum the log vectors, one exponential) or product (the baseline of SHEXP Fig. 8, Zhou et al. 2005: multiply g by every sphere's projected visibility with the triple-product tensor; exp, large are then unused)",
+    },
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
@@ -132,6 +143,8 @@ pub struct ShexpOptions {
     /// `large=product`: spheres subtending more than the clip's first kink multiply g by their
     /// projected visibility (at most 4 per receiver) instead of adding their clipped log.
     pub large_product: bool,
+    /// `accumulate=product`: every sphere multiplies g (the product baseline) instead of adding its log.
+    pub accumulate_product: bool,
 }
 
 impl Default for ShexpOptions {
@@ -145,6 +158,7 @@ impl Default for ShexpOptions {
             window_h: None,
             ratio: false,
             large_product: true,
+            accumulate_product: false,
         }
     }
 }
@@ -164,6 +178,7 @@ impl ShexpOptions {
             window_h: o.float_if_given("h"),
             ratio: o.choice("diffuse") == "ratio",
             large_product: o.choice("large") == "product",
+            accumulate_product: o.choice("accumulate") == "product",
         }
     }
 
@@ -189,7 +204,9 @@ pub struct GpuShexpParams {
     pub diffuse_mode: u32,
     /// `u = 1 − cos θ` above which a sphere multiplies its projected visibility (`large=product`; 2: never).
     pub large_u: f32,
-    pub pad: [u32; 3],
+    /// 0 log, 1 product (`accumulate`).
+    pub accumulate: u32,
+    pub pad: [u32; 2],
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -251,7 +268,8 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         gamma_count,
         diffuse_mode: o.ratio as u32,
         large_u: large_u(o) as f32,
-        pad: [0; 3],
+        accumulate: o.accumulate_product as u32,
+        pad: [0; 2],
         h_star,
         window,
     }
