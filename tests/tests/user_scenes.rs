@@ -38,7 +38,8 @@ fn gltf_round_trip_poses_match_hand_computed_matrices() {
         Mat4::from_translation(elbow) * Mat4::from_rotation_z(deg.to_radians()) * Mat4::from_translation(-elbow)
     };
     let mut first = None;
-    for (name, c) in [("arm.gltf", Container::Embedded), ("arm-ext.gltf", Container::External), ("arm.glb", Container::Glb)]
+    for (name, c) in
+        [("arm.gltf", Container::Embedded), ("arm-ext.gltf", Container::External), ("arm.glb", Container::Glb)]
     {
         let p = write_arm(name, c);
         let g = load_gltf(&p, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -82,7 +83,9 @@ fn gltf_round_trip_poses_match_hand_computed_matrices() {
         let pose = g.rig.pose(Some(lift), 0.5);
         close(pose.bones[0], Mat4::from_translation(Vec3::new(-1.0, 0.875, 0.0)), "lift t = 0.5");
         let s: f32 = 0.25;
-        let y = (2.0 * s.powi(3) - 3.0 * s * s + 1.0) * 0.5 + (s.powi(3) - 2.0 * s * s + s) + (-2.0 * s.powi(3) + 3.0 * s * s);
+        let y = (2.0 * s.powi(3) - 3.0 * s * s + 1.0) * 0.5
+            + (s.powi(3) - 2.0 * s * s + s)
+            + (-2.0 * s.powi(3) + 3.0 * s * s);
         close(g.rig.pose(Some(lift), 0.25).bones[0], Mat4::from_translation(Vec3::new(-1.0, y, 0.0)), "lift 0.25");
         // The stones are not animated: their transforms stay.
         let stone = stones_index(&g);
@@ -187,7 +190,9 @@ fn bad_gltf_files_are_errors_naming_the_file_and_the_problem() {
             "KHR_mesh_quantization",
         ),
         (
-            edited("cubic-count.gltf", |_, d| d["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE")),
+            edited("cubic-count.gltf", |_, d| {
+                d["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE")
+            }),
             "output values",
         ),
     ];
@@ -216,7 +221,8 @@ fn obj_mtl_materials_map_onto_ours() {
         "newmtl red\nKd 0.8 0.1 0.1\nKs 0.3 0.3 0.3\nNs 250\nnewmtl grey\nKd 0.5 0.5 0.5\n",
     )
     .unwrap();
-    let obj = "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\no a\nusemtl red\nf 1 2 3\no b\nusemtl grey\nf 1 2 4\n";
+    let obj =
+        "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\no a\nusemtl red\nf 1 2 3\no b\nusemtl grey\nf 1 2 4\n";
     let p = d.join("two.obj");
     std::fs::write(&p, obj).unwrap();
     let (meshes, materials) = load_obj_with_materials(&p).unwrap();
@@ -276,10 +282,12 @@ fn a_model_file_becomes_a_framed_scene_with_skinned_spheres_and_clips() {
     let all = loaded.animation.expect("clips");
     let at = |a: &demos::Animation, t: f32| a.pose(t).bones.unwrap()[1];
     let root = Mat4::from_translation(Vec3::from(ARM_ROOT));
-    let elbow = Mat4::from_translation(Vec3::X) * Mat4::from_rotation_z(30f32.to_radians()) * Mat4::from_translation(-Vec3::X);
+    let elbow =
+        Mat4::from_translation(Vec3::X) * Mat4::from_rotation_z(30f32.to_radians()) * Mat4::from_translation(-Vec3::X);
     close(at(&all, 0.5), root * elbow, "all: bend first");
     close(at(&all, 2.5), Mat4::from_translation(Vec3::new(-1.0, 0.875, 0.0)), "all: then lift");
-    let pulse = demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("pulse".into()), ..opts.clone() });
+    let pulse =
+        demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("pulse".into()), ..opts.clone() });
     close(at(&pulse.unwrap().animation.unwrap(), 1.0), root * Mat4::from_scale(Vec3::splat(1.2)), "--clip pulse");
     let e = demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("wave".into()), ..opts });
     let e = format!("{:#}", e.err().unwrap());
@@ -352,7 +360,8 @@ fn a_sphere_file_of_another_mesh_is_refused() {
         bunny_spheres.display()
     );
     std::fs::write(&scene, text).unwrap();
-    let e = format!("{:#}", user::scene_file(&scene, None, &demos::assets_dir(), &UserOptions::default()).err().unwrap());
+    let e =
+        format!("{:#}", user::scene_file(&scene, None, &demos::assets_dir(), &UserOptions::default()).err().unwrap());
     assert!(e.contains("bunny.spheres.json") && e.contains("another mesh"), "{e}");
 }
 
@@ -367,7 +376,11 @@ fn environment_rotation_shifts_columns() {
     let quarter = user::rotate_environment(&env, 90.0);
     for y in 0..2 {
         for x in 0..8 {
-            assert_eq!(quarter.texels[y * 8 + (x + 2) % 8], env.texels[y * 8 + x], "a quarter turn moves 2 of 8 columns");
+            assert_eq!(
+                quarter.texels[y * 8 + (x + 2) % 8],
+                env.texels[y * 8 + x],
+                "a quarter turn moves 2 of 8 columns"
+            );
         }
     }
     let half_texel = user::rotate_environment(&env, 22.5);

@@ -12,9 +12,7 @@ use anyhow::{anyhow, bail, ensure, Context, Result};
 use engine::blockers::fit::FitSettings;
 use engine::blockers::Sphere;
 use engine::math::envmap::LatLongMap;
-use engine::scene::{
-    load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight,
-};
+use engine::scene::{load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight};
 use glam::{EulerRot, Mat4, Quat, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -309,7 +307,13 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
     Ok(UserScene { scene, clips })
 }
 
-fn spheres_of(mesh: &Mesh, blockers: &Blockers, k: usize, file: &Path, opts: &UserOptions) -> Result<Option<Vec<Sphere>>> {
+fn spheres_of(
+    mesh: &Mesh,
+    blockers: &Blockers,
+    k: usize,
+    file: &Path,
+    opts: &UserOptions,
+) -> Result<Option<Vec<Sphere>>> {
     match blockers {
         Blockers::Fit(0) => Ok(None),
         Blockers::Fit(n) => {
@@ -317,14 +321,13 @@ fn spheres_of(mesh: &Mesh, blockers: &Blockers, k: usize, file: &Path, opts: &Us
             let dir = opts.cache.clone().unwrap_or_else(cache_dir);
             let name = mesh.name.clone();
             let mut announced = false;
-            let (spheres, cache, fitted) =
-                engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
-                    if !announced {
-                        eprintln!("fitting {n} blocker spheres to '{name}' of {} (cached after)...", file.display());
-                        announced = true;
-                    }
-                    eprintln!("  iteration {:>3}: outside volume {:.4e} {}", p.iteration, p.outside_sum, p.message);
-                })?;
+            let (spheres, cache, fitted) = engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
+                if !announced {
+                    eprintln!("fitting {n} blocker spheres to '{name}' of {} (cached after)...", file.display());
+                    announced = true;
+                }
+                eprintln!("  iteration {:>3}: outside volume {:.4e} {}", p.iteration, p.outside_sum, p.message);
+            })?;
             if fitted {
                 eprintln!("fitted {} spheres to '{name}', cached in {}", spheres.len(), cache.display());
             }
@@ -332,7 +335,12 @@ fn spheres_of(mesh: &Mesh, blockers: &Blockers, k: usize, file: &Path, opts: &Us
         }
         Blockers::Files(files) => {
             let f = files.get(k).ok_or_else(|| {
-                anyhow!("{}: {} sphere files for more meshes (mesh {k}, '{}', has none)", file.display(), files.len(), mesh.name)
+                anyhow!(
+                    "{}: {} sphere files for more meshes (mesh {k}, '{}', has none)",
+                    file.display(),
+                    files.len(),
+                    mesh.name
+                )
             })?;
             Ok(Some(engine::scene::blockers::spheres_for_mesh(mesh, f)?))
         }
@@ -349,7 +357,9 @@ pub fn default_environment(env: Option<&Path>, assets: &Path) -> Result<LatLongM
 pub fn single_model(path: &Path, env: Option<&Path>, assets: &Path, opts: &UserOptions) -> Result<UserScene> {
     let model = load_model(path)?;
     let choice = match &opts.clip {
-        Some(name) => ClipChoice::One(model.rig.clip_index(name).map_err(|e| anyhow!("{}: --clip: {e}", path.display()))?),
+        Some(name) => {
+            ClipChoice::One(model.rig.clip_index(name).map_err(|e| anyhow!("{}: --clip: {e}", path.display()))?)
+        }
         None => ClipChoice::All,
     };
     let composition = Composition {
@@ -621,8 +631,7 @@ fn build_scene_file(
         Some(GroundSpec { material: Some(m), .. }) => Some(m.build("ground.material")?),
         _ => Some(Material::diffuse(Vec3::splat(0.6))),
     };
-    let composition =
-        Composition { models, environment, environment_intensity: intensity, lights, camera, ground };
+    let composition = Composition { models, environment, environment_intensity: intensity, lights, camera, ground };
     assemble(composition, opts)
 }
 

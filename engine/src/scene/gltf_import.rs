@@ -487,7 +487,10 @@ where
         );
     }
     if unweighted > 0 {
-        log::warn!("{}: mesh '{name}': {unweighted} skinned vertices have no weight; they stay at rest", path.display());
+        log::warn!(
+            "{}: mesh '{name}': {unweighted} skinned vertices have no weight; they stay at rest",
+            path.display()
+        );
     }
     Ok(out)
 }
@@ -518,7 +521,9 @@ where
         }
         use gltf::animation::util::ReadOutputs;
         let (property, values): (Property, Vec<Vec4>) = match reader.read_outputs() {
-            Some(ReadOutputs::Translations(it)) => (Property::Translation, it.map(|v| Vec3::from(v).extend(0.0)).collect()),
+            Some(ReadOutputs::Translations(it)) => {
+                (Property::Translation, it.map(|v| Vec3::from(v).extend(0.0)).collect())
+            }
             Some(ReadOutputs::Scales(it)) => (Property::Scale, it.map(|v| Vec3::from(v).extend(0.0)).collect()),
             Some(ReadOutputs::Rotations(r)) => (Property::Rotation, r.into_f32().map(Vec4::from).collect()),
             Some(ReadOutputs::MorphTargetWeights(_)) => {
