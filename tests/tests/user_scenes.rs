@@ -169,7 +169,7 @@ fn bad_gltf_files_are_errors_naming_the_file_and_the_problem() {
                 let t = b.floats("SCALAR", &[0.0, 1.0, 1.0]);
                 d["animations"][0]["samplers"][0]["input"] = json!(t);
             }),
-            "not increasing",
+            "not come after",
         ),
         (
             edited("morph.gltf", |_, d| {
@@ -395,4 +395,17 @@ fn examples_gltf_is_the_writers_output() {
     b.write(doc, &fresh, Container::Embedded).unwrap();
     let (a, b) = (std::fs::read_to_string(&shipped).unwrap(), std::fs::read_to_string(&fresh).unwrap());
     assert!(a == b, "examples/arm.gltf drifted from demos::gltf_writer: `cargo run -p demos --bin write_gltf_example`");
+}
+
+/// The README's complete scene-file example parses (every key it shows exists, with the type it shows).
+#[test]
+fn readme_scene_example_parses() {
+    let readme = std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../README.md")).unwrap();
+    let start = readme.find("**A complete scene file**").expect("the README's scene-file example");
+    let block = &readme[start..];
+    let open = block.find("```toml\n").expect("a toml block") + "```toml\n".len();
+    let text = &block[open..open + block[open..].find("```").unwrap()];
+    let spec = user::parse_scene_file(text).unwrap_or_else(|e| panic!("README example: {e}"));
+    assert_eq!((spec.model.len(), spec.light.len()), (1, 1));
+    assert_eq!(spec.environment.and_then(|e| e.rotation), Some(120.0));
 }

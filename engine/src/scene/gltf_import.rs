@@ -513,7 +513,7 @@ where
         }
         if let Some(k) = times.windows(2).position(|w| w[1] <= w[0]) {
             return Err(bad(format!(
-                "key times are not increasing: time {} is {} after {}",
+                "key times are not increasing: key {} at {} s does not come after key {k} at {} s",
                 k + 1,
                 times[k + 1],
                 times[k]
