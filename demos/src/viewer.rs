@@ -62,7 +62,7 @@ pub fn run(event_loop: EventLoop<()>, gpu: &Gpu, renderer: &mut Renderer, option
         last_title: Instant::now() - Duration::from_secs(1),
         fps_window: (Instant::now(), 0),
         fps: 0.0,
-        started: Instant::now(),
+        clock: AnimationClock::new(Instant::now()),
     };
     event_loop.set_control_flow(ControlFlow::Poll);
     let ran = event_loop.run_app(&mut app).context("event loop");
@@ -137,7 +137,7 @@ struct App<'a> {
     last_title: Instant,
     fps_window: (Instant, u32),
     fps: f64,
-    started: Instant,
+    clock: AnimationClock,
 }
 
 impl App<'_> {
@@ -174,7 +174,7 @@ impl App<'_> {
             self.renderer.set_camera(self.orbit.camera());
         }
         if let Some(a) = &self.options.animation {
-            a.apply(self.renderer, self.started.elapsed().as_secs_f32())?;
+            a.apply(self.renderer, self.clock.time(Instant::now()))?;
         }
         let timings = self.renderer.render_presenting(self.gpu, &image)?;
         window.pre_present_notify();
@@ -240,6 +240,12 @@ impl App<'_> {
                     self.orbit = self.home;
                     self.orbit_moved = true;
                 }
+                "p" | "P" | " " if self.options.animation.is_some() => {
+                    let paused = self.clock.toggle(Instant::now());
+                    eprintln!("viewer: animation {}", if paused { "paused" } else { "playing" });
+                }
+                "." | ">" if self.options.animation.is_some() => self.step(STEP_S),
+                "," | "<" if self.options.animation.is_some() => self.step(-STEP_S),
                 "+" | "=" => self.renderer.settings.exposure *= 1.25,
                 "-" | "_" => self.renderer.settings.exposure /= 1.25,
                 _ => {}
@@ -247,6 +253,11 @@ impl App<'_> {
             _ => {}
         }
         Ok(())
+    }
+
+    fn step(&mut self, dt: f32) {
+        let t = self.clock.step(Instant::now(), dt);
+        eprintln!("viewer: animation paused at t = {t:.3} s");
     }
 
     fn next_technique(&mut self) -> Result<()> {
@@ -342,5 +353,70 @@ mod tests {
         o2.zoom(1.0);
         assert!((o2.distance - 0.9 * d).abs() < 1e-5);
         assert!(o2.camera().eye.is_finite());
+    }
+}
+
+/// One step of `,`/`.` in the viewer: a frame at 30 frames per second.
+const STEP_S: f32 = 1.0 / 30.0;
+
+/// The viewer's animation time: follows the wall clock while playing; `P`/space pauses and resumes, `.`/`,` step
+/// one frame forward/back (and pause). Never negative.
+#[derive(Clone, Copy, Debug)]
+pub struct AnimationClock {
+    /// Wall-clock instant that corresponds to animation time 0 while playing.
+    origin: Instant,
+    /// `Some(t)`: paused at animation time t.
+    paused: Option<f32>,
+}
+
+impl AnimationClock {
+    pub fn new(now: Instant) -> Self {
+        Self { origin: now, paused: None }
+    }
+
+    /// The animation time at `now`.
+    pub fn time(&self, now: Instant) -> f32 {
+        self.paused.unwrap_or_else(|| now.saturating_duration_since(self.origin).as_secs_f32())
+    }
+
+    /// Pause or resume at `now`; returns whether it is paused afterwards.
+    pub fn toggle(&mut self, now: Instant) -> bool {
+        match self.paused.take() {
+            Some(t) => {
+                self.origin = now.checked_sub(Duration::from_secs_f32(t)).unwrap_or(now);
+                false
+            }
+            None => {
+                self.paused = Some(self.time(now));
+                true
+            }
+        }
+    }
+
+    /// Pause (if playing) and move by `dt` seconds (not below 0); returns the new time.
+    pub fn step(&mut self, now: Instant, dt: f32) -> f32 {
+        let t = (self.time(now) + dt).max(0.0);
+        self.paused = Some(t);
+        t
+    }
+}
+
+#[cfg(test)]
+mod clock_tests {
+    use super::*;
+
+    #[test]
+    fn the_animation_clock_pauses_resumes_and_steps() {
+        let t0 = Instant::now();
+        let at = |s: f32| t0 + Duration::from_secs_f32(s);
+        let mut c = AnimationClock::new(t0);
+        assert!((c.time(at(1.0)) - 1.0).abs() < 1e-4);
+        assert!(c.toggle(at(1.0)), "paused");
+        assert!((c.time(at(5.0)) - 1.0).abs() < 1e-4, "time stands while paused");
+        assert!(!c.toggle(at(5.0)), "resumed");
+        assert!((c.time(at(6.0)) - 2.0).abs() < 1e-4, "resumes where it paused");
+        assert!((c.step(at(6.0), STEP_S) - (2.0 + STEP_S)).abs() < 1e-4);
+        assert!((c.time(at(9.0)) - (2.0 + STEP_S)).abs() < 1e-4, "a step pauses");
+        assert_eq!(AnimationClock::new(t0).step(t0, -1.0), 0.0, "never negative");
     }
 }
