@@ -28,7 +28,8 @@ pub enum Container {
 }
 
 impl GltfBuilder {
-    fn view(&mut self, bytes: &[u8]) -> usize {
+    /// A buffer view over `bytes` (4-byte aligned), for accessors written by hand (sparse ones).
+    pub fn view(&mut self, bytes: &[u8]) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }

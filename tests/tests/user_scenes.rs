@@ -258,7 +258,7 @@ fn small_fit(cache: &Path) -> UserOptions {
 
 #[test]
 fn a_model_file_becomes_a_framed_scene_with_skinned_spheres_and_clips() {
-    let p = write_arm("model.gltf", Container::Embedded);
+    let p = write_arm("model-a.gltf", Container::Embedded);
     let cache = dir().join("cache-model");
     let _ = std::fs::remove_dir_all(&cache);
     let opts = small_fit(&cache);
@@ -350,8 +350,7 @@ fn scene_file_errors_name_the_file_the_line_and_the_key() {
 fn a_sphere_file_of_another_mesh_is_refused() {
     let d = dir();
     let bunny_spheres = demos::assets_dir().join("meshes/bunny.spheres.json");
-    let p = d.join("model.gltf");
-    write_arm("model.gltf", Container::Embedded);
+    let p = write_arm("model-s.gltf", Container::Embedded);
     let scene = d.join("wrong-spheres.toml");
     let text = format!(
         "[[model]]\nfile = \"{}\"\nsphere_files = [\"{}\", \"{}\"]\n",
@@ -408,4 +407,31 @@ fn readme_scene_example_parses() {
     let spec = user::parse_scene_file(text).unwrap_or_else(|e| panic!("README example: {e}"));
     assert_eq!((spec.model.len(), spec.light.len()), (1, 1));
     assert_eq!(spec.environment.and_then(|e| e.rotation), Some(120.0));
+}
+
+/// A sparse accessor (glTF 2.0 §3.6.2.3) is read with its substitutions: a triangle whose third vertex is moved
+/// by a sparse entry.
+#[test]
+fn sparse_accessors_are_applied() {
+    let mut b = GltfBuilder::default();
+    let base = b.floats("VEC3", &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let indices = b.view(&2u32.to_le_bytes());
+    let values: Vec<u8> = [0.0f32, 3.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).collect();
+    let values = b.view(&values);
+    let view = b.accessors[base]["bufferView"].clone();
+    b.accessors.push(json!({
+        "bufferView": view, "componentType": 5126, "count": 3, "type": "VEC3",
+        "min": [0.0, 0.0, 0.0], "max": [1.0, 3.0, 0.0],
+        "sparse": { "count": 1, "indices": { "bufferView": indices, "componentType": 5125 },
+                    "values": { "bufferView": values } }
+    }));
+    let sparse = b.accessors.len() - 1;
+    let doc = json!({
+        "scene": 0, "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": sparse } }] }],
+    });
+    let p = dir().join("sparse.gltf");
+    b.write(doc, &p, Container::Embedded).unwrap();
+    let g = load_gltf(&p, 0).unwrap();
+    assert_eq!(g.meshes[0].positions, [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 3.0, 0.0)]);
 }

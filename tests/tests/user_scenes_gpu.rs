@@ -18,8 +18,8 @@ fn example(name: &str) -> PathBuf {
 }
 
 /// Small fits in a fresh cache (the examples' sphere counts, fewer iterations).
-fn options() -> UserOptions {
-    let cache = std::env::temp_dir().join(format!("user-scenes-gpu-{}", std::process::id()));
+fn options(test: &str) -> UserOptions {
+    let cache = std::env::temp_dir().join(format!("user-scenes-gpu-{}-{test}", std::process::id()));
     UserOptions {
         cache: Some(cache),
         fit: Some(engine::blockers::fit::FitSettings {
@@ -39,7 +39,8 @@ fn example_scene_files_render_and_the_arm_moves() {
     let gpu = engine_tests::gpu();
     let assets = demos::assets_dir();
     for name in ["arm.toml", "still_life.toml"] {
-        let u = user::scene_file(&example(name), None, &assets, &options()).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        let u = user::scene_file(&example(name), None, &assets, &options("examples"))
+            .unwrap_or_else(|e| panic!("{name}: {e:#}"));
         let settings = RenderSettings { width: W, height: H, ..Default::default() };
         let mut r = Renderer::new(&gpu, &u.scene, settings).unwrap_or_else(|e| panic!("{name}: {e}"));
         r.render(&gpu).unwrap();
@@ -64,7 +65,8 @@ fn example_scene_files_render_and_the_arm_moves() {
 #[test]
 fn the_reference_traces_the_gltf_animated_pose() {
     let gpu = engine_tests::gpu();
-    let u = user::scene_file(&example("arm.toml"), None, &demos::assets_dir(), &options()).expect("arm.toml");
+    let u =
+        user::scene_file(&example("arm.toml"), None, &demos::assets_dir(), &options("reference")).expect("arm.toml");
     let settings = RenderSettings { width: 32, height: 24, technique: "reference".into(), ..Default::default() };
     let mut r = Renderer::new(&gpu, &u.scene, settings).expect("renderer");
     let opts = ReferenceOptions { samples_per_frame: 4, ..ReferenceOptions::default() };
