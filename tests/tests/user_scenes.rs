@@ -238,6 +238,15 @@ fn obj_mtl_materials_map_onto_ours() {
     std::fs::write(&lone, "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n").unwrap();
     let (m, mat) = load_obj_with_materials(&lone).unwrap();
     assert_eq!((m.len(), mat[0].diffuse), (1, Vec3::splat(0.8)));
+    // Missing and corrupt OBJ files are errors naming the file.
+    let missing = d.join("missing.obj");
+    assert_err_names(load_obj_with_materials(&missing).unwrap_err(), &missing, "not found");
+    let bad = d.join("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nvn 0 0 1\nf 1//-11 1//1 1//1\n").unwrap();
+    assert_err_names(load_obj_with_materials(&bad).unwrap_err(), &bad, "relative index");
+    let nan = d.join("nan.obj");
+    std::fs::write(&nan, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    assert_err_names(load_obj_with_materials(&nan).unwrap_err(), &nan, "non-finite");
 }
 
 fn small_fit(cache: &Path) -> UserOptions {
