@@ -190,6 +190,20 @@ fn bad_gltf_files_are_errors_naming_the_file_and_the_problem() {
             "KHR_mesh_quantization",
         ),
         (
+            edited("ibm-count.gltf", |b, d| {
+                let one = b.floats("MAT4", &Mat4::IDENTITY.to_cols_array());
+                d["skins"][0]["inverseBindMatrices"] = json!(one);
+            }),
+            "1 inverse bind matrices for 2 joints",
+        ),
+        (
+            edited("nan-key.gltf", |b, d| {
+                let v = b.floats("VEC4", &[0.0, 0.0, 0.0, 1.0, f32::NAN, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+                d["animations"][0]["samplers"][0]["output"] = json!(v);
+            }),
+            "not finite",
+        ),
+        (
             edited("cubic-count.gltf", |_, d| {
                 d["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE")
             }),
@@ -298,6 +312,16 @@ fn a_model_file_becomes_a_framed_scene_with_skinned_spheres_and_clips() {
     let pulse =
         demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("pulse".into()), ..opts.clone() });
     close(at(&pulse.unwrap().animation.unwrap(), 1.0), root * Mat4::from_scale(Vec3::splat(1.2)), "--clip pulse");
+    // As the registry's check does for registered motions: every pose finite, one matrix per bone, at a spread of
+    // times (an hour in included).
+    for t in [0.0, 0.1, 1.9, 2.0, 4.99, 5.0, 10.0, 3600.0, -1.0] {
+        let pose = all.pose(t);
+        assert_eq!(pose.bones.as_ref().map(Vec::len), Some(2));
+        assert!(
+            pose.bones.unwrap().iter().all(|m| m.is_finite()) && pose.transforms.iter().all(|(_, m)| m.is_finite())
+        );
+        assert!(pose.transforms.iter().all(|(i, _)| *i < s.instances.len()));
+    }
     let e = demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("wave".into()), ..opts });
     let e = format!("{:#}", e.err().unwrap());
     assert!(e.contains("wave") && e.contains("bend") && e.contains(&p.display().to_string()), "{e}");
