@@ -66,7 +66,9 @@ impl BenchPlan {
             bail!("--frames must be at least 1 (the frames that are timed)");
         }
         for s in &self.scenes {
-            crate::scenes::find(s)?;
+            if !crate::scenes::user::is_file_spec(s) {
+                crate::scenes::find(s)?;
+            }
         }
         for t in &self.techniques {
             engine::passes::shade::technique_entry(t.split(':').next().unwrap_or(t))?;
@@ -171,9 +173,8 @@ pub fn run(gpu: &Gpu, plan: &BenchPlan) -> Result<(Vec<Row>, Vec<Skipped>)> {
     let total = plan.row_count();
     let t0 = std::time::Instant::now();
     for scene_name in &plan.scenes {
-        let entry = crate::scenes::find(scene_name)?;
-        let scene = crate::scenes::build(entry.name, None)?;
-        let animation = crate::Animation::for_entry(entry, &scene);
+        let loaded = crate::scenes::load(scene_name, None, &Default::default())?;
+        let (scene, animation) = (loaded.scene, loaded.animation);
         for &(width, height) in &plan.sizes {
             for &per_vertex in &plan.rates {
                 let skip = |technique: &str, reason: String| Skipped {

@@ -21,9 +21,17 @@ const PROGRESS_EVERY_S: f64 = 2.0;
 #[derive(Parser, Debug)]
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
 struct Args {
-    /// Scene (the registry in demos/src/scenes).
+    /// Scene: a registered name (the registry in demos/src/scenes), or a file: .gltf, .glb or .obj (one model on a
+    /// ground plane, framed, spheres fitted and cached) or .toml (a scene description; README: Your own scenes).
     #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
+    /// File scenes: blocker spheres fitted per mesh (0: none; a scene file's `spheres` key wins) [default: 32].
+    /// Fits are cached by mesh content in $SOFTSHADOWS_SPHERE_CACHE (default ~/.cache/softshadows/spheres).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
+    spheres: Option<u32>,
+    /// File scenes with --animate: play only the animation clip NAME (default: every clip in turn).
+    #[arg(long, value_name = "NAME", requires = "animate")]
+    clip: Option<String>,
     /// Shading technique `NAME[:key=value,...]` (`--help` lists every registered technique and its
     /// options).
     #[arg(long, default_value = engine::renderer::DEFAULT_TECHNIQUE)]
@@ -68,7 +76,8 @@ struct Args {
     #[arg(long, conflicts_with_all = ["window", "capture"])]
     memory: bool,
     /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
-    /// T: technique, V: per-vertex/per-pixel, +/-: exposure, R: reset, Esc: quit).
+    /// T: technique, V: per-vertex/per-pixel, +/-: exposure, R: reset, with --animate P/space: pause, ./,: step a
+    /// frame, Esc: quit).
     #[arg(long, conflicts_with_all = ["frames", "spp", "capture", "export"])]
     window: bool,
     /// With --window: quit after this many presented frames (0: when the window closes), printing
@@ -215,15 +224,20 @@ fn run() -> anyhow::Result<()> {
     let mut args = parse_args();
     // Bad specs, options that do not apply and unusable outputs fail before any GPU work.
     check_args(&args)?;
-    let entry = demos::scenes::find(&args.scene)?;
-    let mut scene = demos::scenes::build(entry.name, args.env.as_deref())?;
+    let opts = demos::scenes::user::UserOptions {
+        spheres: args.spheres.map(|n| n as usize),
+        clip: args.clip.clone(),
+        ..Default::default()
+    };
+    let loaded = demos::scenes::load(&args.scene, args.env.as_deref(), &opts)?;
+    let mut scene = loaded.scene;
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
     }
-    let animation = if args.animate { demos::Animation::for_entry(entry, &scene) } else { None };
+    let animation = if args.animate { loaded.animation } else { None };
     if args.animate && animation.is_none() {
         eprintln!(
-            "warning: scene '{}' has no animation ({} do); rendering it static",
+            "warning: scene '{}' has no animation ({} do, and files with glTF clips); rendering it static",
             args.scene,
             demos::scenes::animated_names()
         );
@@ -250,7 +264,7 @@ fn run() -> anyhow::Result<()> {
         None => e.into(),
     })?;
     // From here on every error path releases what it made before returning, so the error prints alone.
-    let result = render_on(&gpu, &mut args, &scene, entry, animation, event_loop);
+    let result = render_on(&gpu, &mut args, &scene, &loaded.label, animation, event_loop);
     let teardown = gpu.shutdown();
     match (result, teardown) {
         (Ok(()), t) => t.map_err(Into::into),
@@ -265,7 +279,7 @@ fn render_on(
     gpu: &Gpu,
     args: &mut Args,
     scene: &engine::scene::Scene,
-    entry: &demos::scenes::SceneEntry,
+    label: &str,
     animation: Option<demos::Animation>,
     event_loop: Option<winit::event_loop::EventLoop<()>>,
 ) -> anyhow::Result<()> {
@@ -279,7 +293,7 @@ fn render_on(
         per_vertex: args.per_vertex,
         exposure: args.exposure,
     };
-    eprintln!("preparing scene '{}' with technique '{}' at {}x{}...", entry.name, args.technique, width, height);
+    eprintln!("preparing scene '{label}' with technique '{}' at {}x{}...", args.technique, width, height);
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(gpu, scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());

@@ -2,10 +2,9 @@
 //! keys to switch technique and shading rate; per-pass GPU times in the title.
 //!
 //! Controls: left mouse drag orbits, wheel zooms, `T`/`Tab` cycles techniques, `V` toggles
-//! per-vertex/per-pixel shading, `Space` pauses and resumes the animation, `.`/`,` step it one frame (1/30 s)
-//! forward/back (pausing it), `B` steps the glossy materials' BRDF (the scene's own, diffuse, Blinn-Phong
-//! s = 1000, anisotropic Ashikhmin-Shirley, Cook-Torrance GGX: [`crate::BRDF_PRESETS`]), `+`/`-` change
-//! exposure, `R` resets the camera, `Esc`/`Q` quits.
+//! per-vertex/per-pixel shading, `B` steps the glossy materials' BRDF (the scene's own, diffuse, Blinn-Phong
+//! s = 1000, anisotropic Ashikhmin-Shirley, Cook-Torrance GGX: [`crate::BRDF_PRESETS`]), `P`/space pause and
+//! `.`/`,` step the animation, `+`/`-` change exposure, `R` resets the camera, `Esc`/`Q` quits.
 //! The scene renders at the requested resolution and is scaled to the window.
 
 use anyhow::{Context, Result};
@@ -68,8 +67,7 @@ pub fn run(event_loop: EventLoop<()>, gpu: &Gpu, renderer: &mut Renderer, option
         last_title: Instant::now() - Duration::from_secs(1),
         fps_window: (Instant::now(), 0),
         fps: 0.0,
-        started: Instant::now(),
-        clock: AnimationClock::playing(),
+        clock: AnimationClock::new(Instant::now()),
     };
     event_loop.set_control_flow(ControlFlow::Poll);
     let ran = event_loop.run_app(&mut app).context("event loop");
@@ -144,47 +142,7 @@ struct App<'a> {
     last_title: Instant,
     fps_window: (Instant, u32),
     fps: f64,
-    started: Instant,
     clock: AnimationClock,
-}
-
-/// Frame step of the `.`/`,` keys, the headless `--animate` step.
-pub const ANIMATION_STEP_S: f64 = 1.0 / 30.0;
-
-/// The viewer's animation time: follows the wall clock while playing; `Space` freezes it, `.`/`,` move it
-/// by whole frames while frozen. Times are seconds since the viewer started (`now`), never negative.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct AnimationClock {
-    /// Animation time at `since` (paused: the time shown).
-    base: f64,
-    /// Wall time at which playing resumed, or `None` while paused.
-    since: Option<f64>,
-}
-
-impl AnimationClock {
-    pub fn playing() -> Self {
-        Self { base: 0.0, since: Some(0.0) }
-    }
-    pub fn is_paused(&self) -> bool {
-        self.since.is_none()
-    }
-    /// The animation time at wall time `now`.
-    pub fn time(&self, now: f64) -> f64 {
-        match self.since {
-            Some(t0) => self.base + (now - t0).max(0.0),
-            None => self.base,
-        }
-    }
-    /// Pause (keeping the time shown) or resume (from it).
-    pub fn toggle(&mut self, now: f64) {
-        self.base = self.time(now);
-        self.since = if self.is_paused() { Some(now) } else { None };
-    }
-    /// Pause and move by `frames` steps of [`ANIMATION_STEP_S`] (negative: back; never before 0).
-    pub fn step(&mut self, now: f64, frames: i32) {
-        self.base = (self.time(now) + frames as f64 * ANIMATION_STEP_S).max(0.0);
-        self.since = None;
-    }
 }
 
 impl App<'_> {
@@ -203,8 +161,7 @@ impl App<'_> {
         self.window = Some(window);
         self.swapchain = Some(swapchain);
         eprintln!(
-            "viewer: drag to orbit, wheel to zoom, T technique ({}), V per-vertex/per-pixel, B BRDF, Space pause, \
-             ./, step, +/- exposure, R reset, Esc quit",
+            "viewer: drag to orbit, wheel to zoom, T technique ({}), V per-vertex/per-pixel, B BRDF, +/- exposure, R reset, Esc quit",
             TECHNIQUES.iter().map(|t| t.name).collect::<Vec<_>>().join("/")
         );
         Ok(())
@@ -222,7 +179,7 @@ impl App<'_> {
             self.renderer.set_camera(self.orbit.camera());
         }
         if let Some(a) = &self.options.animation {
-            a.apply(self.renderer, self.clock.time(self.started.elapsed().as_secs_f64()) as f32)?;
+            a.apply(self.renderer, self.clock.time(Instant::now()))?;
         }
         let timings = self.renderer.render_presenting(self.gpu, &image)?;
         window.pre_present_notify();
@@ -278,17 +235,6 @@ impl App<'_> {
             Key::Character(c) => match c.as_str() {
                 "q" | "Q" => el.exit(),
                 "t" | "T" => self.next_technique()?,
-                " " => {
-                    let now = self.started.elapsed().as_secs_f64();
-                    self.clock.toggle(now);
-                    let state = if self.clock.is_paused() { "paused" } else { "playing" };
-                    eprintln!("viewer: animation {state} at {:.3} s", self.clock.time(now));
-                }
-                "." | ">" | "," | "<" => {
-                    let now = self.started.elapsed().as_secs_f64();
-                    self.clock.step(now, if matches!(c.as_str(), "." | ">") { 1 } else { -1 });
-                    eprintln!("viewer: animation paused at {:.3} s", self.clock.time(now));
-                }
                 "b" | "B" => {
                     let materials = self.options.brdf.step()?;
                     self.renderer.set_materials(self.gpu, &materials)?;
@@ -304,6 +250,12 @@ impl App<'_> {
                     self.orbit = self.home;
                     self.orbit_moved = true;
                 }
+                "p" | "P" | " " if self.options.animation.is_some() => {
+                    let paused = self.clock.toggle(Instant::now());
+                    eprintln!("viewer: animation {}", if paused { "paused" } else { "playing" });
+                }
+                "." | ">" if self.options.animation.is_some() => self.step(STEP_S),
+                "," | "<" if self.options.animation.is_some() => self.step(-STEP_S),
                 "+" | "=" => self.renderer.settings.exposure *= 1.25,
                 "-" | "_" => self.renderer.settings.exposure /= 1.25,
                 _ => {}
@@ -311,6 +263,11 @@ impl App<'_> {
             _ => {}
         }
         Ok(())
+    }
+
+    fn step(&mut self, dt: f32) {
+        let t = self.clock.step(Instant::now(), dt);
+        eprintln!("viewer: animation paused at t = {t:.3} s");
     }
 
     fn next_technique(&mut self) -> Result<()> {
@@ -407,25 +364,69 @@ mod tests {
         assert!((o2.distance - 0.9 * d).abs() < 1e-5);
         assert!(o2.camera().eye.is_finite());
     }
+}
+
+/// One step of `,`/`.` in the viewer: a frame at 30 frames per second.
+const STEP_S: f32 = 1.0 / 30.0;
+
+/// The viewer's animation time: follows the wall clock while playing; `P`/space pauses and resumes, `.`/`,` step
+/// one frame forward/back (and pause). Never negative.
+#[derive(Clone, Copy, Debug)]
+pub struct AnimationClock {
+    /// Wall-clock instant that corresponds to animation time 0 while playing.
+    origin: Instant,
+    /// `Some(t)`: paused at animation time t.
+    paused: Option<f32>,
+}
+
+impl AnimationClock {
+    pub fn new(now: Instant) -> Self {
+        Self { origin: now, paused: None }
+    }
+
+    /// The animation time at `now`.
+    pub fn time(&self, now: Instant) -> f32 {
+        self.paused.unwrap_or_else(|| now.saturating_duration_since(self.origin).as_secs_f32())
+    }
+
+    /// Pause or resume at `now`; returns whether it is paused afterwards.
+    pub fn toggle(&mut self, now: Instant) -> bool {
+        match self.paused.take() {
+            Some(t) => {
+                self.origin = now.checked_sub(Duration::from_secs_f32(t)).unwrap_or(now);
+                false
+            }
+            None => {
+                self.paused = Some(self.time(now));
+                true
+            }
+        }
+    }
+
+    /// Pause (if playing) and move by `dt` seconds (not below 0); returns the new time.
+    pub fn step(&mut self, now: Instant, dt: f32) -> f32 {
+        let t = (self.time(now) + dt).max(0.0);
+        self.paused = Some(t);
+        t
+    }
+}
+
+#[cfg(test)]
+mod clock_tests {
+    use super::*;
 
     #[test]
-    fn the_clock_pauses_steps_and_resumes() {
-        let mut c = AnimationClock::playing();
-        assert_eq!(c.time(2.0), 2.0);
-        c.toggle(2.0);
-        assert!(c.is_paused());
-        assert_eq!(c.time(5.0), 2.0, "frozen while paused");
-        c.step(5.0, 3);
-        assert!((c.time(9.0) - (2.0 + 3.0 * ANIMATION_STEP_S)).abs() < 1e-12);
-        c.step(9.0, -1000);
-        assert_eq!(c.time(9.0), 0.0, "never before the start");
-        c.step(9.0, 1);
-        c.toggle(10.0);
-        assert!(!c.is_paused());
-        assert!((c.time(10.5) - (ANIMATION_STEP_S + 0.5)).abs() < 1e-12, "resumes from the time shown");
-        // Stepping while playing pauses at the stepped time.
-        c.step(11.0, 1);
-        assert!(c.is_paused());
-        assert!((c.time(20.0) - (1.0 + 2.0 * ANIMATION_STEP_S)).abs() < 1e-12);
+    fn the_animation_clock_pauses_resumes_and_steps() {
+        let t0 = Instant::now();
+        let at = |s: f32| t0 + Duration::from_secs_f32(s);
+        let mut c = AnimationClock::new(t0);
+        assert!((c.time(at(1.0)) - 1.0).abs() < 1e-4);
+        assert!(c.toggle(at(1.0)), "paused");
+        assert!((c.time(at(5.0)) - 1.0).abs() < 1e-4, "time stands while paused");
+        assert!(!c.toggle(at(5.0)), "resumed");
+        assert!((c.time(at(6.0)) - 2.0).abs() < 1e-4, "resumes where it paused");
+        assert!((c.step(at(6.0), STEP_S) - (2.0 + STEP_S)).abs() < 1e-4);
+        assert!((c.time(at(9.0)) - (2.0 + STEP_S)).abs() < 1e-4, "a step pauses");
+        assert_eq!(AnimationClock::new(t0).step(t0, -1.0), 0.0, "never negative");
     }
 }

@@ -121,3 +121,22 @@ fn the_report_sweep_refuses_unregistered_scenes() {
     demos::report::load_sweep(&path, "s").expect("registered scenes load");
     let _ = std::fs::remove_file(&path);
 }
+
+/// `--scene FILE` errors come before the GPU, naming the file: a missing model, an extension that is neither a
+/// model nor a scene file, an unknown `--clip`, and `--clip` on a registered scene.
+#[test]
+fn file_scene_errors_name_the_file() {
+    let demo = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_demo")).args(args).output().expect("demo");
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, err) = demo(&["--scene", "/nonexistent/model.glb"]);
+    assert!(code == Some(1) && err.contains("/nonexistent/model.glb: file not found"), "{err}");
+    let (code, err) = demo(&["--scene", "model.fbx"]);
+    assert!(code == Some(2) && err.contains("model.fbx") && err.contains(".gltf, .glb, .obj or .toml"), "{err}");
+    let arm = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/arm.gltf");
+    let (code, err) = demo(&["--scene", arm, "--animate", "--clip", "wave", "--spheres", "0"]);
+    assert!(code == Some(1) && err.contains(arm) && err.contains("clips: bend, lift, pulse"), "{err}");
+    let (code, err) = demo(&["--scene", "bunny", "--animate", "--clip", "wave"]);
+    assert!(code == Some(1) && err.contains("--clip applies to file scenes"), "{err}");
+}

@@ -81,6 +81,7 @@ pub mod lamp;
 pub mod shapes;
 pub mod sheet;
 pub mod sphere;
+pub mod user;
 
 /// Every demo scene, in the order `--help` lists them.
 pub const SCENES: &[SceneEntry] =
@@ -155,15 +156,27 @@ impl Pose {
     }
 }
 
-/// A built scene's motion, ready to pose it at any time (`--animate`: the demo, the viewer, captures).
+/// A built scene's motion, ready to pose it at any time (`--animate`: the demo, the viewer, captures): a registered
+/// scene's [`Motion`], or a file scene's clips ([`user::ClipPlayer`]).
+#[derive(Clone)]
 pub struct Animation {
-    motion: Motion,
-    rest: Rest,
+    driver: Driver,
+}
+
+#[derive(Clone)]
+enum Driver {
+    Motion { motion: Motion, rest: Rest },
+    Clips(std::sync::Arc<user::ClipPlayer>),
 }
 
 impl Animation {
     pub fn new(motion: Motion, scene: &Scene) -> Self {
-        Self { motion, rest: Rest::of(scene) }
+        Self { driver: Driver::Motion { motion, rest: Rest::of(scene) } }
+    }
+
+    /// The animation of a file scene: its clips.
+    pub fn clips(player: std::sync::Arc<user::ClipPlayer>) -> Self {
+        Self { driver: Driver::Clips(player) }
     }
 
     /// The animation of `scene`, built from `entry`, if the entry has a motion.
@@ -172,7 +185,10 @@ impl Animation {
     }
 
     pub fn pose(&self, t: f32) -> Pose {
-        (self.motion.pose)(&self.rest, t)
+        match &self.driver {
+            Driver::Motion { motion, rest } => (motion.pose)(rest, t),
+            Driver::Clips(p) => p.pose(t),
+        }
     }
 
     /// Pose the renderer's scene at time `t` seconds.
@@ -181,12 +197,34 @@ impl Animation {
     }
 }
 
+/// A scene built from `--scene` (a registered name or a file) with what `--animate` would play.
+pub struct Loaded {
+    /// The registered name or the file as given.
+    pub label: String,
+    pub scene: Scene,
+    /// Its motion or clips (`None`: static).
+    pub animation: Option<Animation>,
+}
+
+/// Build `--scene SPEC`: a registered name, or a `.gltf`/`.glb`/`.obj`/`.toml` file ([`user`]).
+pub fn load(spec: &str, env: Option<&Path>, opts: &user::UserOptions) -> Result<Loaded> {
+    if user::is_file_spec(spec) && find(spec).is_err() {
+        let assets = crate::assets_dir();
+        let u = user::build_file(spec, env, &assets, opts)?;
+        return Ok(Loaded { label: spec.to_string(), scene: u.scene, animation: u.clips.map(Animation::clips) });
+    }
+    anyhow::ensure!(opts.clip.is_none(), "--clip applies to file scenes (glTF clips); '{spec}' is a registered scene");
+    let entry = find(spec)?;
+    let scene = build(entry.name, env)?;
+    let animation = Animation::for_entry(entry, &scene);
+    Ok(Loaded { label: spec.to_string(), scene, animation })
+}
+
 /// The registered scene called `name`; an unknown name is an error listing the registered ones.
 pub fn find(name: &str) -> Result<&'static SceneEntry> {
-    SCENES
-        .iter()
-        .find(|s| s.name == name)
-        .ok_or_else(|| anyhow::anyhow!("unknown scene '{name}' (scenes: {})", names()))
+    SCENES.iter().find(|s| s.name == name).ok_or_else(|| {
+        anyhow::anyhow!("unknown scene '{name}' (scenes: {}; or a .gltf, .glb, .obj or .toml file)", names())
+    })
 }
 
 /// The registered names, comma-separated.
@@ -194,18 +232,59 @@ pub fn names() -> String {
     SCENES.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
 }
 
-/// Build the registered scene `name` from the project's assets, with `env` instead of its environment.
+/// Build the registered scene `name` from the project's assets, with `env` instead of its environment; a file
+/// name builds that file's scene with the default options ([`load`] takes options and returns its clips).
 pub fn build(name: &str, env: Option<&Path>) -> Result<Scene> {
+    if user::is_file_spec(name) && find(name).is_err() {
+        return Ok(load(name, env, &user::UserOptions::default())?.scene);
+    }
     let entry = find(name)?;
     let assets = crate::assets_dir();
     (entry.build)(&SceneInputs { env, assets: &assets }).map_err(|e| e.context(format!("building scene '{name}'")))
 }
 
-/// `--scene`'s parser: the registered names, each with its summary in `--help`.
-pub fn value_parser() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(
-        SCENES.iter().map(|s| clap::builder::PossibleValue::new(s.name).help(s.summary)),
-    )
+/// `--scene`'s parser: a registered name (listed with its summary in `--help`) or a file ending in `.gltf`,
+/// `.glb`, `.obj` (one model) or `.toml` (a scene description); anything else is an error listing both.
+pub fn value_parser() -> SceneParser {
+    SceneParser
+}
+
+/// See [`value_parser`].
+#[derive(Clone, Copy, Debug)]
+pub struct SceneParser;
+
+impl clap::builder::TypedValueParser for SceneParser {
+    type Value = String;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> std::result::Result<String, clap::Error> {
+        let s = value.to_string_lossy().into_owned();
+        if SCENES.iter().any(|e| e.name == s) || user::is_file_spec(&s) {
+            return Ok(s);
+        }
+        let arg = arg.map(|a| a.to_string()).unwrap_or_else(|| "--scene".into());
+        Err(clap::Error::raw(
+            clap::error::ErrorKind::InvalidValue,
+            format!(
+                "invalid value '{s}' for '{arg}': not a registered scene ({}) nor a .gltf, .glb, .obj or .toml file\n",
+                names()
+            ),
+        )
+        .with_cmd(cmd))
+    }
+
+    fn possible_values(&self) -> Option<Box<dyn Iterator<Item = clap::builder::PossibleValue> + '_>> {
+        Some(Box::new(SCENES.iter().map(|s| clap::builder::PossibleValue::new(s.name).help(s.summary)).chain(
+            std::iter::once(clap::builder::PossibleValue::new("FILE").help(
+                "a .gltf, .glb or .obj model (framed on a ground plane, spheres fitted and cached; --animate plays \
+                     its clips) or a .toml scene description (README: Your own scenes)",
+            )),
+        )))
+    }
 }
 
 /// `--animate`'s help: what moves, and in which scenes.

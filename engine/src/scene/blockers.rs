@@ -118,6 +118,51 @@ pub fn fitted_spheres(mesh: &Mesh, settings: &FitSettings, cache: &Path) -> Resu
     Ok(outcome.spheres().to_vec())
 }
 
+/// The fit-once sphere set of `mesh` in the folder `cache_dir`, the file named by the mesh's content hash and the
+/// sphere count (`<hash>-n<count>.spheres.json`), so any number of meshes share one folder and an edited mesh gets
+/// a new file. `progress` sees every fit iteration. Returns the spheres, the file and whether it fitted.
+pub fn cached_spheres(
+    mesh: &Mesh,
+    settings: &FitSettings,
+    cache_dir: &Path,
+    progress: &mut dyn FnMut(&engine_blockers::fit::FitProgress),
+) -> Result<(Vec<Sphere>, std::path::PathBuf, bool), super::SceneError> {
+    let err = |p: &Path, m: String| super::SceneError::invalid(p, m);
+    let positions = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+    let triangles = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let bmesh = engine_blockers::mesh::Mesh::new(positions, triangles)
+        .map_err(|e| err(cache_dir, format!("mesh '{}': {e}", mesh.name)))?;
+    let hash = bmesh.content_hash();
+    let short: String = hash.rsplit(':').next().unwrap_or("").chars().filter(|c| c.is_ascii_hexdigit()).collect();
+    let file = cache_dir.join(format!("{short}-n{}.spheres.json", settings.count));
+    std::fs::create_dir_all(cache_dir).map_err(|e| err(cache_dir, format!("cannot create the sphere cache: {e}")))?;
+    let outcome = load_or_fit(&bmesh, &mesh.name, settings, &file, progress).map_err(|e| err(&file, e.to_string()))?;
+    let fitted = matches!(outcome, CacheOutcome::Fitted { .. });
+    Ok((outcome.spheres().to_vec(), file, fitted))
+}
+
+/// Load a sphere file for `mesh`, refusing one fitted to another mesh (its recorded content hash differs).
+pub fn spheres_for_mesh(mesh: &Mesh, file: &Path) -> Result<Vec<Sphere>, super::SceneError> {
+    let err = |m: String| super::SceneError::invalid(file, m);
+    if !file.exists() {
+        return Err(super::SceneError::NotFound { path: file.to_path_buf() });
+    }
+    let set = engine_blockers::file::SphereSetFile::load(file).map_err(|e| err(e.to_string()))?;
+    let positions = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+    let triangles = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let bmesh = engine_blockers::mesh::Mesh::new(positions, triangles).map_err(|e| err(e.to_string()))?;
+    if set.mesh_hash != bmesh.content_hash() {
+        return Err(err(format!(
+            "the spheres were fitted to another mesh ('{}', hash {}), not to '{}' (hash {})",
+            set.source_mesh,
+            set.mesh_hash,
+            mesh.name,
+            bmesh.content_hash()
+        )));
+    }
+    set.spheres().map_err(|e| err(e.to_string()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,8 +5,9 @@
 //! - zero-area triangles: dropped, with a warning (a mesh left with none is an error);
 //! - missing or non-finite normals: recomputed, area-weighted, with a warning.
 
-use super::{Instance, Material, Result, SceneError};
-use glam::{Mat4, Vec3};
+use super::gltf_import::GltfScene;
+use super::{Material, Result, SceneError};
+use glam::Vec3;
 use std::path::Path;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -180,16 +181,92 @@ fn load_obj_unguarded(path: &Path) -> Result<Mesh> {
     Mesh::new(path, &name, positions, all_normals.then_some(normals), indices)
 }
 
-/// What a glTF file contributes to a scene.
-#[derive(Clone, Debug, Default)]
-pub struct GltfScene {
-    pub meshes: Vec<Mesh>,
-    pub materials: Vec<Material>,
-    pub instances: Vec<Instance>,
+/// Load an OBJ file with its `.mtl` materials: one mesh per material (objects sharing a material are merged;
+/// faces with none form one more mesh), each with its [`Material`]: `Kd` → diffuse ρ_d, `Ks` → specular k_s,
+/// `Ns` → the Blinn-Phong exponent s (as written: OBJ's Phong exponent is used as ours; clamped to [1, 1e5]).
+/// Colours are clamped to [0, 1]. A missing or unreadable `.mtl` is a warning (the meshes get the default grey).
+pub fn load_obj_with_materials(path: &Path) -> Result<(Vec<Mesh>, Vec<Material>)> {
+    check_exists(path)?;
+    let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
+    check_relative_indices(&String::from_utf8_lossy(&bytes))
+        .map_err(|m| SceneError::invalid(path, format!("not a valid OBJ file: {m}")))?;
+    drop(bytes);
+    std::panic::catch_unwind(|| load_obj_materials_unguarded(path))
+        .unwrap_or_else(|_| Err(SceneError::invalid(path, "not a valid OBJ file (the OBJ parser panicked on it)")))
+}
+
+/// One `.mtl` material on our model.
+pub fn material_from_mtl(m: &tobj::Material) -> Material {
+    let unit = |c: [f32; 3]| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE);
+    let mut out = Material::diffuse(m.diffuse.map(unit).unwrap_or(Vec3::splat(0.8)));
+    if let Some(ks) = m.specular {
+        out.specular = unit(ks);
+    }
+    if let Some(ns) = m.shininess.filter(|s| s.is_finite()) {
+        out.shininess = ns.clamp(1.0, 1e5);
+    }
+    out
+}
+
+fn load_obj_materials_unguarded(path: &Path) -> Result<(Vec<Mesh>, Vec<Material>)> {
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, materials) =
+        tobj::load_obj(path, &opts).map_err(|e| SceneError::invalid(path, format!("not a valid OBJ file: {e}")))?;
+    let mtl: Vec<(String, Material)> = match materials {
+        Ok(m) => m.iter().map(|m| (m.name.clone(), material_from_mtl(m))).collect(),
+        Err(e) => {
+            log::warn!("{}: materials not loaded ({e}); default grey", path.display());
+            Vec::new()
+        }
+    };
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut meshes = Vec::new();
+    let mut out_materials = Vec::new();
+    // Group by material (None: no material or one the .mtl lacks).
+    let mut groups: Vec<Option<usize>> = models.iter().map(|m| m.mesh.material_id.filter(|&i| i < mtl.len())).collect();
+    groups.sort();
+    groups.dedup();
+    for group in groups {
+        let (mut positions, mut normals, mut indices, mut all_normals) = (Vec::new(), Vec::new(), Vec::new(), true);
+        for m in models.iter().filter(|m| m.mesh.material_id.filter(|&i| i < mtl.len()) == group) {
+            let base = positions.len() as u32;
+            let p = &m.mesh.positions;
+            positions.extend(p.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+            if m.mesh.normals.len() == p.len() {
+                normals.extend(m.mesh.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+            } else {
+                all_normals = false;
+            }
+            let nverts = (p.len() / 3) as u32;
+            for &i in &m.mesh.indices {
+                if i >= nverts {
+                    return Err(SceneError::invalid(
+                        path,
+                        format!("object '{}': index {i} out of range ({nverts} vertices)", m.name),
+                    ));
+                }
+                indices.push(base + i);
+            }
+        }
+        if positions.is_empty() {
+            continue;
+        }
+        let name = match group {
+            Some(i) => format!("{stem}:{}", mtl[i].0),
+            None => stem.clone(),
+        };
+        meshes.push(Mesh::new(path, &name, positions, all_normals.then_some(normals), indices)?);
+        out_materials.push(group.map_or(Material::diffuse(Vec3::splat(0.8)), |i| mtl[i].1));
+    }
+    if meshes.is_empty() {
+        return Err(SceneError::invalid(path, "no vertices (not an OBJ mesh?)"));
+    }
+    Ok((meshes, out_materials))
 }
 
 /// Load a glTF 2.0 file (.gltf or .glb): the default scene's node hierarchy with transforms, every
-/// triangle primitive as a mesh, and base colour / metallic / roughness factors as materials.
+/// triangle primitive as a mesh (once per glTF mesh, however many nodes use it), base colour / metallic /
+/// roughness factors as materials, skins and animation clips (see [`super::gltf_import`]).
 /// `material_base` offsets the material indices (materials are appended to a scene's list).
 ///
 /// Malformed files are errors naming the file, never a crash: the `gltf` crates panic on some inputs they
@@ -311,75 +388,11 @@ fn load_gltf_unguarded(path: &Path, material_base: usize) -> Result<GltfScene> {
     let invalid = |e: String| SceneError::invalid(path, format!("not a valid glTF file: {e}"));
     let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
     check_glb_header(&bytes).map_err(invalid)?;
-    let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| invalid(e.to_string()))?;
+    let gltf::Gltf { document: doc, blob } = super::gltf_import::parse(&bytes).map_err(invalid)?;
     drop(bytes);
     // Buffers only: the renderer reads no textures, so images (external files too) are not loaded.
     check_external_buffers(&doc, path.parent()).map_err(invalid)?;
     let buffers = gltf::import_buffers(&doc, path.parent(), blob).map_err(|e| invalid(e.to_string()))?;
     check_node_forest(&doc).map_err(|m| SceneError::invalid(path, format!("not a valid glTF file: {m}")))?;
-    let mut out = GltfScene::default();
-    for m in doc.materials() {
-        let pbr = m.pbr_metallic_roughness();
-        let [r, g, b, _] = pbr.base_color_factor();
-        out.materials.push(Material::from_metallic_roughness(
-            Vec3::new(r, g, b),
-            pbr.metallic_factor(),
-            pbr.roughness_factor(),
-        ));
-    }
-    let default_material = out.materials.len();
-    out.materials.push(Material::diffuse(Vec3::splat(0.8)));
-    let scene =
-        doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| SceneError::invalid(path, "no scene"))?;
-    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
-    let mut visited = 0usize;
-    while let Some((node, parent)) = stack.pop() {
-        visited += 1;
-        if visited > 1_000_000 {
-            return Err(SceneError::invalid(path, "node hierarchy too deep or cyclic"));
-        }
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
-        let world = parent * local;
-        if !world.is_finite() {
-            return Err(SceneError::invalid(path, format!("node {} has a non-finite transform", node.index())));
-        }
-        if let Some(mesh) = node.mesh() {
-            for (pi, prim) in mesh.primitives().enumerate() {
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    log::warn!(
-                        "{}: mesh {} primitive {pi}: mode {:?} skipped",
-                        path.display(),
-                        mesh.index(),
-                        prim.mode()
-                    );
-                    continue;
-                }
-                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
-                let Some(pos) = reader.read_positions() else {
-                    return Err(SceneError::invalid(
-                        path,
-                        format!("mesh {} primitive {pi} has no positions", mesh.index()),
-                    ));
-                };
-                let positions: Vec<Vec3> = pos.map(Vec3::from).collect();
-                let normals = reader.read_normals().map(|n| n.map(Vec3::from).collect());
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..positions.len() as u32).collect(),
-                };
-                let name = format!("{}#{pi}", mesh.name().unwrap_or("mesh"));
-                out.meshes.push(Mesh::new(path, &name, positions, normals, indices)?);
-                out.instances.push(Instance {
-                    mesh: out.meshes.len() - 1,
-                    transform: world,
-                    material: material_base + prim.material().index().unwrap_or(default_material),
-                });
-            }
-        }
-        stack.extend(node.children().map(|c| (c, world)));
-    }
-    if out.meshes.is_empty() {
-        return Err(SceneError::invalid(path, "no triangle meshes in the default scene"));
-    }
-    Ok(out)
+    super::gltf_import::read(path, &doc, &buffers, material_base)
 }

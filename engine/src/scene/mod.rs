@@ -2,12 +2,14 @@
 
 pub mod blockers;
 mod env;
+pub mod gltf_import;
 mod mesh;
 pub mod triangle_bvh;
 
 pub use blockers::{SceneBlockers, Skin};
 pub use env::{load_environment, load_environment_with_repairs, MAX_ENV_SIDE, MAX_ENV_TEXELS};
-pub use mesh::{compute_normals, load_gltf, load_obj, GltfScene, Mesh};
+pub use gltf_import::{Clip, GltfScene, Rig, RigPose};
+pub use mesh::{compute_normals, load_gltf, load_obj, load_obj_with_materials, material_from_mtl, Mesh};
 
 use crate::options::{Kind, OptionSpec};
 use glam::{Mat4, Vec3};

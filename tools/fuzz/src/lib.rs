@@ -256,6 +256,12 @@ fn load_env(p: &Path) -> Result<(), String> {
 fn load_spheres(p: &Path) -> Result<(), String> {
     engine::blockers::file::SphereSetFile::load(p).map(|_| ()).map_err(|e| e.to_string())
 }
+/// The scene description parser (`--scene FILE.toml`): TOML syntax and the strict schema. Building the scene
+/// (models, environment, sphere fits) reads other files through the loaders fuzzed above.
+fn parse_scene(p: &Path) -> Result<(), String> {
+    let text = std::fs::read_to_string(p).map_err(|e| e.to_string())?;
+    demos::scenes::user::parse_scene_file(&text).map(|_| ())
+}
 
 /// Every target: one per loader.
 pub const TARGETS: &[Target] = &[
@@ -265,6 +271,7 @@ pub const TARGETS: &[Target] = &[
     Target { name: "exr", ext: "exr", run: load_env, seeds: seeds::exr },
     Target { name: "hdr", ext: "hdr", run: load_env, seeds: seeds::hdr },
     Target { name: "spheres", ext: "json", run: load_spheres, seeds: seeds::spheres },
+    Target { name: "scene", ext: "toml", run: parse_scene, seeds: seeds::scene },
 ];
 
 /// The target called `name`.

@@ -145,6 +145,12 @@ pub fn hdr() -> Vec<Vec<u8>> {
 }
 
 /// Sphere-set files: the shipped bunny's.
+/// Scene descriptions: the two shipped examples.
+pub fn scene() -> Vec<Vec<u8>> {
+    let examples = assets().join("../examples");
+    ["arm.toml", "still_life.toml"].iter().filter_map(|n| read(examples.join(n))).collect()
+}
+
 pub fn spheres() -> Vec<Vec<u8>> {
     read(assets().join("meshes/bunny.spheres.json")).into_iter().collect()
 }
