@@ -1,6 +1,7 @@
 //! `engine::scene`: meshes, materials, environment, camera — plain data, no Vulkan.
 
 pub mod blockers;
+pub mod cloth;
 mod env;
 mod mesh;
 pub mod triangle_bvh;
