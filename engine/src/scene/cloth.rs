@@ -119,12 +119,13 @@ impl Cloth {
         a * b
     }
 
-    /// Substeps from t = 0 to `t` seconds (floor, with a little slack for f32 times of whole frames).
+    /// Substeps from t = 0 to `t` seconds: the floor of t / substep with a slack of a thousandth of a substep,
+    /// for times and substeps rounded to f32 (1.5 s / (1/240 s in f32) is 359.99998).
     pub fn substeps_at(&self, t: f64) -> u64 {
         if !(t > 0.0) {
             return 0;
         }
-        (t / self.params.substep as f64 + 1e-6).floor() as u64
+        (t / self.params.substep as f64 + 1e-3).floor() as u64
     }
 
     /// Check the sizes and parameters against the mesh (`vertex_count`): a clear message, never a crash.
