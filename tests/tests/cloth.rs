@@ -2,7 +2,7 @@
 //! - its substeps against the f64 CPU twin (engine::scene::cloth::ClothSim) on a small cloth falling onto a
 //!   ball, and its generated spheres against the twin of spheres.comp;
 //! - the `cloth` demo scene: deterministic (the same state whether reached in 45 frames or in one, and again
-//!   after going back in time), finite, above the ground and outside the bunnies' spheres once landed, its
+//!   after going back in time), no allocation in a simulating frame, finite, above the ground and outside the bunnies' spheres once landed, its
 //!   world vertices those of the simulation;
 //! - its shadows: ISG (thin shells; the generated spheres collapsed to radius 0) and SHEXP (the generated
 //!   spheres) both darken the ground under the cloth against `none`.
@@ -99,9 +99,19 @@ fn the_cloth_scene_is_deterministic_lands_outside_the_bunnies_and_resets() {
     // Run 1: 45 frames of 1/30 s (8 substeps each), keeping the state at frame 15.
     let mut a = Renderer::new(&gpu, &scene, settings("none", 32, 24)).unwrap();
     let mut at_half = Vec::new();
+    let mut steady = None;
     for f in 1..=45 {
         a.set_time(f as f32 / 30.0).unwrap();
         a.render(&gpu).unwrap();
+        // Frames that simulate allocate no device memory (the readbacks below do, so compare before them).
+        if f == 2 {
+            steady = Some(gpu.memory_stats());
+        }
+        if f == 14 {
+            let (before, after) = (steady.take().unwrap(), gpu.memory_stats());
+            assert_eq!(after.allocations_made, before.allocations_made, "a simulating frame allocated memory");
+            assert_eq!(after.allocated_bytes, before.allocated_bytes);
+        }
         if f == 15 {
             at_half = positions(&gpu, &a);
         }
@@ -187,9 +197,8 @@ fn isg_and_shexp_see_the_cloth_shadow() {
         let receivers: Vec<engine_tests::Receiver> = pos
             .chunks_exact(4)
             .map(|p| {
-                (p[3] >= 0.5).then(|| {
-                    (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64), DVec3::Y, (p[3] - 0.5) as usize)
-                })
+                (p[3] >= 0.5)
+                    .then(|| (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64), DVec3::Y, (p[3] - 0.5) as usize))
             })
             .collect();
         let spheres: Vec<[f32; 4]> = gpu.read_buffer(&r.scene.blockers.spheres).unwrap();
@@ -208,7 +217,11 @@ fn isg_and_shexp_see_the_cloth_shadow() {
     // The visible ground beside the draped cloth (|x|, |z| < 0.8 m; 87 pixels, the rest is under the cloth)
     // against the unshadowed `none`. Measured ratios: isg 0.53, shexp 0.42 (its spheres are fatter than the
     // sheet); the bound asks only for a clear shadow in both.
-    eprintln!("ground luminance: none {none:.4}, isg {isg:.4} ({:.2}), shexp {shexp:.4} ({:.2})", isg / none, shexp / none);
+    eprintln!(
+        "ground luminance: none {none:.4}, isg {isg:.4} ({:.2}), shexp {shexp:.4} ({:.2})",
+        isg / none,
+        shexp / none
+    );
     assert!(isg < 0.7 * none, "isg: {isg} vs none {none}");
     assert!(shexp < 0.7 * none, "shexp: {shexp} vs none {none}");
     gpu.shutdown().expect("clean teardown");

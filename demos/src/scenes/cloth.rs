@@ -70,7 +70,11 @@ fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
     });
     let cloth = Cloth { mesh: 2, columns: CLOTH_SIDE, rows: CLOTH_SIDE, params: params() };
     Ok(Scene {
-        meshes: vec![bunny, super::shapes::ground_plane(2.0, 32), grid_mesh(CLOTH_SIDE, CLOTH_SIDE, CLOTH_HALF, CLOTH_HALF)],
+        meshes: vec![
+            bunny,
+            super::shapes::ground_plane(2.0, 32),
+            grid_mesh(CLOTH_SIDE, CLOTH_SIDE, CLOTH_HALF, CLOTH_HALF),
+        ],
         materials: vec![
             Material::glossy(Vec3::new(0.7, 0.68, 0.62), 0.15, 200.0),
             Material::diffuse(Vec3::new(0.55, 0.55, 0.55)),
@@ -95,4 +99,32 @@ fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
 /// Nothing is posed: the cloth moves by itself with the renderer's time (`Renderer::set_time`).
 fn still(_: &Rest, _: f32) -> Pose {
     Pose::default()
+}
+
+/// `scene` frozen at `t` seconds: its cloth simulated on the GPU to `t` (a renderer with technique `none`
+/// at 8 × 8 pixels), its mesh replaced by that state in world space (identity transform, no jitter) and its
+/// normals recomputed. The cloth stays simulated, at rest in that state, so at time 0 it keeps its shape and
+/// the sphere-only techniques still get its generated spheres; the reference's triangles, which are posed on
+/// the host from the meshes, see the draped cloth too. A scene without a cloth is returned unchanged.
+pub fn frozen_at(gpu: &engine::gpu::Gpu, scene: &Scene, t: f32) -> anyhow::Result<Scene> {
+    let Some(cloth) = scene.blockers.cloth.clone() else { return Ok(scene.clone()) };
+    let settings =
+        engine::renderer::RenderSettings { width: 8, height: 8, technique: "none".into(), ..Default::default() };
+    let mut r = engine::renderer::Renderer::new(gpu, scene, settings)?;
+    let state = r.set_time(t).and_then(|_| r.render(gpu)).and_then(|_| {
+        let pass = r.cloth().ok_or_else(|| engine::gpu::GpuError::Other("internal: no cloth pass".into()))?;
+        gpu.read_buffer::<[f32; 4]>(&pass.x)
+    });
+    r.destroy(gpu);
+    let state = state?;
+    let (instance, _) = engine::scene::cloth::cloth_instance(scene, &cloth).map_err(anyhow::Error::msg)?;
+    let mut s = scene.clone();
+    let mesh = &mut s.meshes[cloth.mesh];
+    mesh.positions = state.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    mesh.normals = engine::scene::compute_normals(&mesh.positions, &mesh.indices);
+    s.instances[instance].transform = Mat4::IDENTITY;
+    if let Some(c) = s.blockers.cloth.as_mut() {
+        c.params.jitter = 0.0;
+    }
+    Ok(s)
 }

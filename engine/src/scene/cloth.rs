@@ -122,7 +122,7 @@ impl Cloth {
     /// Substeps from t = 0 to `t` seconds: the floor of t / substep with a slack of a thousandth of a substep,
     /// for times and substeps rounded to f32 (1.5 s / (1/240 s in f32) is 359.99998).
     pub fn substeps_at(&self, t: f64) -> u64 {
-        if !(t > 0.0) {
+        if t.is_nan() || t <= 0.0 {
             return 0;
         }
         (t / self.params.substep as f64 + 1e-3).floor() as u64
@@ -135,10 +135,7 @@ impl Cloth {
             return Err(format!("cloth: a grid of {} × {} vertices (at least 3 × 3)", self.columns, self.rows));
         }
         if self.vertex_count() != vertex_count {
-            return Err(format!(
-                "cloth: {} × {} vertices, its mesh has {vertex_count}",
-                self.columns, self.rows
-            ));
+            return Err(format!("cloth: {} × {} vertices, its mesh has {vertex_count}", self.columns, self.rows));
         }
         let finite = p.substep.is_finite()
             && p.relaxation.is_finite()
@@ -316,9 +313,8 @@ impl ClothSim {
         let dt = prm.substep as f64;
         let keep = (1.0 - prm.damping as f64 * dt).max(0.0);
         let g = prm.gravity.as_dvec3();
-        let mut p: Vec<DVec3> = (0..self.x.len())
-            .map(|k| self.collide(self.x[k] + (self.v[k] * keep + g * dt) * dt, spheres).0)
-            .collect();
+        let mut p: Vec<DVec3> =
+            (0..self.x.len()).map(|k| self.collide(self.x[k] + (self.v[k] * keep + g * dt) * dt, spheres).0).collect();
         for _ in 0..prm.iterations {
             p = self.jacobi(&p);
         }
