@@ -318,8 +318,8 @@ impl ClothSim {
         for _ in 0..prm.iterations {
             p = self.jacobi(&p);
         }
-        for k in 0..self.x.len() {
-            let (q, normal) = self.collide(p[k], spheres);
+        for (k, &pk) in p.iter().enumerate() {
+            let (q, normal) = self.collide(pk, spheres);
             let mut v = (q - self.x[k]) / dt;
             if let Some(n) = normal {
                 let vn = v.dot(n);
