@@ -467,6 +467,9 @@ pub fn without_blockers(scene: &Scene) -> Scene {
     s.blockers = engine::scene::SceneBlockers {
         skins: scene.blockers.skins.clone(),
         bones: scene.blockers.bones.clone(),
+        // The cloth still moves (its generated spheres are blockers of their own: dropped by the
+        // technique's reads only when it sees thin shells, which this scene has none of).
+        cloth: scene.blockers.cloth.clone(),
         ..Default::default()
     };
     s

@@ -9,7 +9,8 @@
 //! 3. `resources` (the scene in device memory, prepared once per scene and shared by every pass);
 //! 4. `passes` (one file per pass, each with its shader folder; `passes::shade` holds the techniques
 //!    and their registry);
-//! 5. `renderer` (one frame: skin → thin shells → blocker spheres → BVH → G-buffer → shade → tonemap);
+//! 5. `renderer` (one frame: skin → blocker spheres → cloth → thin shells → BVH → G-buffer → shade →
+//!    tonemap);
 //! 6. `converge` (drives whole frames: the reference's convergence loops).
 
 pub use engine_blockers as blockers;

@@ -1,11 +1,12 @@
-//! One frame: skin → thin shells → blocker spheres → blocker BVH → (per-vertex shade) → G-buffer →
-//! shade or compose → tonemap, with per-pass
+//! One frame: skin → blocker spheres → cloth (if the scene has one) → thin shells → blocker BVH →
+//! (per-vertex shade) → G-buffer → shade or compose → tonemap, with per-pass
 //! GPU times. Everything is allocated in [`Renderer::new`]; a steady frame allocates no device
 //! memory (checked by a test through the allocator's counters).
 
 use crate::gpu::{Frame, Gpu, GpuError, Image, ImageDesc, ImageFormat, PassTiming, Recorder, Result, SwapchainImage};
 use crate::passes::blocker_bvh::BlockerBvhPass;
 use crate::passes::blocker_spheres::BlockerSpheresPass;
+use crate::passes::cloth::ClothPass;
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::shade::{parse_technique, ComposePass, Reads, ShadeInputs, ShadeTarget, Technique};
 use crate::passes::skin::SkinPass;
@@ -61,6 +62,7 @@ struct Parts {
     blocker_spheres: Option<BlockerSpheresPass>,
     blocker_bvh: Option<BlockerBvhPass>,
     thin_shells: Option<ThinShellsPass>,
+    cloth: Option<ClothPass>,
     gbuffer_pass: Option<GBufferPass>,
     compose: Option<ComposePass>,
     tonemap: Option<TonemapPass>,
@@ -97,6 +99,9 @@ impl Parts {
         if let Some(x) = self.thin_shells {
             x.destroy(gpu);
         }
+        if let Some(x) = self.cloth {
+            x.destroy(gpu);
+        }
         for i in [self.radiance, self.ldr].into_iter().flatten() {
             gpu.destroy_image(i);
         }
@@ -120,6 +125,8 @@ pub struct Renderer {
     blocker_spheres: BlockerSpheresPass,
     blocker_bvh: BlockerBvhPass,
     thin_shells: ThinShellsPass,
+    /// The scene's cloth simulation, if it has one.
+    cloth: Option<ClothPass>,
     gbuffer_pass: GBufferPass,
     compose: ComposePass,
     tonemap: TonemapPass,
@@ -129,6 +136,8 @@ pub struct Renderer {
     pub settings: RenderSettings,
     camera: Camera,
     near_far: (f32, f32),
+    /// The scene's time (s), for the cloth simulation ([`Renderer::set_time`]).
+    time: f64,
 }
 
 impl Renderer {
@@ -149,6 +158,9 @@ impl Renderer {
             let spheres = p.scene.as_ref().map_or(0, |s| s.blockers.sphere_count);
             p.blocker_bvh = Some(BlockerBvhPass::new(gpu, spheres)?);
             p.thin_shells = Some(ThinShellsPass::new(gpu)?);
+            if let Some(s) = p.scene.as_ref() {
+                p.cloth = ClothPass::new(gpu, scene, s)?;
+            }
             p.gbuffer_pass = Some(GBufferPass::new(gpu)?);
             p.compose = Some(ComposePass::new(gpu)?);
             p.tonemap = Some(TonemapPass::new(gpu)?);
@@ -177,6 +189,7 @@ impl Renderer {
             blocker_spheres: p.blocker_spheres.ok_or_else(missing)?,
             blocker_bvh: p.blocker_bvh.ok_or_else(missing)?,
             thin_shells: p.thin_shells.ok_or_else(missing)?,
+            cloth: p.cloth,
             gbuffer_pass: p.gbuffer_pass.ok_or_else(missing)?,
             compose: p.compose.ok_or_else(missing)?,
             tonemap: p.tonemap.ok_or_else(missing)?,
@@ -185,6 +198,7 @@ impl Renderer {
             frame: p.frame.ok_or_else(missing)?,
             camera: scene.camera,
             near_far: (near, far),
+            time: 0.0,
             settings,
         })
     }
@@ -294,6 +308,22 @@ impl Renderer {
         Ok(())
     }
 
+    /// Animate: the scene's time (s) from the next frame on. Only a simulated cloth reads it: the next frame
+    /// advances it from its state to `t` in fixed substeps, or resets it to the rest state first when `t` is
+    /// earlier than the state (`engine::passes::cloth`).
+    pub fn set_time(&mut self, t: f32) -> Result<()> {
+        if !t.is_finite() || t < 0.0 {
+            return Err(GpuError::Other(format!("scene time {t} s (finite, ≥ 0)")));
+        }
+        self.time = t as f64;
+        Ok(())
+    }
+
+    /// The cloth simulation, if the scene has one (its state for tests and captures).
+    pub fn cloth(&self) -> Option<&ClothPass> {
+        self.cloth.as_ref()
+    }
+
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
         self.render_to(gpu, None)
@@ -317,6 +347,7 @@ impl Renderer {
             blocker_spheres,
             blocker_bvh,
             thin_shells,
+            cloth,
             gbuffer_pass,
             compose,
             tonemap,
@@ -324,13 +355,18 @@ impl Renderer {
             reads,
             frame,
             settings,
+            time,
             ..
         } = self;
         let per_vertex = settings.per_vertex;
         let record = |rec: &mut Recorder| {
             skin.record(rec, scene)?;
-            thin_shells.record(rec, scene)?;
             blocker_spheres.record(rec, scene)?;
+            if let Some(c) = cloth.as_mut() {
+                // Spheres along the cloth only for the techniques that do not see its thin shells.
+                c.record(rec, scene, *time, !reads.thin)?;
+            }
+            thin_shells.record(rec, scene)?;
             let b = &scene.blockers;
             blocker_bvh.record(rec, &b.spheres, &b.bvh_nodes, b.sphere_count)?;
             let inputs = ShadeInputs::new(scene, technique.name(), *reads);
@@ -374,6 +410,9 @@ impl Renderer {
         self.blocker_spheres.destroy(gpu);
         self.blocker_bvh.destroy(gpu);
         self.thin_shells.destroy(gpu);
+        if let Some(c) = self.cloth {
+            c.destroy(gpu);
+        }
         gpu.destroy_image(self.radiance);
         gpu.destroy_image(self.ldr);
         self.gbuffer.destroy(gpu);

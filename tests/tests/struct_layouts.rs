@@ -13,6 +13,7 @@ use engine::gpu::{default_shader_root, ShaderCompiler};
 use engine::layout_check;
 use engine::passes::blocker_bvh::RadixPush;
 use engine::passes::blocker_spheres::AnimatePush;
+use engine::passes::cloth::ClothPush;
 use engine::passes::shade::isg::{GpuIsgParams, GpuSgLobe};
 use engine::passes::shade::reference::ReferenceParams;
 use engine::passes::skin::SkinPush;
@@ -57,6 +58,30 @@ fn host_structs() -> Vec<HostLayout> {
         layout_check!(RadixPush, "blocker_bvh/radix_count.comp", push_constants, [n, shift, tiles]),
         layout_check!(RadixPush, "blocker_bvh/radix_scan.comp", push_constants, [n, shift, tiles]),
         layout_check!(RadixPush, "blocker_bvh/radix_scatter.comp", push_constants, [n, shift, tiles]),
+        // the cloth simulation (cloth/cloth.glsl: one push block, included by every kernel)
+        layout_check!(
+            ClothPush,
+            "cloth/solve.comp",
+            push_constants,
+            [
+                columns,
+                rows,
+                collider_count,
+                vertex_base,
+                dt,
+                keep,
+                relaxation,
+                thickness,
+                gravity,
+                ground,
+                alpha,
+                has_ground,
+                friction,
+                sphere_first,
+                sphere_patch,
+                emit_spheres
+            ]
+        ),
         // thin shells (common/thin.glsl)
         layout_check!(GpuThinTriangle, "thin_shells/triangles.comp", struct "ThinTriangle", [v0, v1, v2]),
         layout_check!(GpuThinCluster, "thin_shells/triangles.comp", struct "ThinCluster", [

@@ -72,6 +72,11 @@ struct Args {
     /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
+    /// Measure the scene as its motion poses it at this time (s), frozen: instance transforms and bones from
+    /// the motion, a simulated cloth run on the GPU to that time (demos::scenes::cloth::frozen_at). Not with
+    /// --reference-cache (its key does not hold the time).
+    #[arg(long)]
+    time: Option<f32>,
 }
 
 fn main() {
@@ -109,6 +114,22 @@ fn run() -> Result<()> {
         measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
     }
     let gpu = Gpu::new(&GpuDesc::default())?;
+    if let Some(t) = args.time {
+        if !t.is_finite() || t < 0.0 || args.reference_cache.is_some() {
+            bail!("--time {t}: a finite time ≥ 0, and not with --reference-cache");
+        }
+        let entry = demos::scenes::find(&args.scene)?;
+        if let Some(a) = demos::Animation::for_entry(entry, &scene) {
+            let pose = a.pose(t);
+            for (i, m) in pose.transforms {
+                scene.instances[i].transform = m;
+            }
+            if let Some(b) = pose.bones {
+                scene.blockers.bones = b;
+            }
+        }
+        scene = demos::scenes::cloth::frozen_at(&gpu, &scene, t)?;
+    }
     let result = measure(&gpu, &scene, &args, &visibilities);
     gpu.shutdown()?;
     result

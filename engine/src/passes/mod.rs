@@ -2,6 +2,7 @@
 
 pub mod blocker_bvh;
 pub mod blocker_spheres;
+pub mod cloth;
 pub mod gbuffer;
 pub mod shade;
 pub mod skin;

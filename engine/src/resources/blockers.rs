@@ -131,6 +131,29 @@ pub fn planes_buffer_words(planes: &[BlockerPlane]) -> Vec<u32> {
     words
 }
 
+/// The records of the cloth's generated blocker spheres (after every other sphere): the patch spheres of its
+/// rest grid in object space, on its instance. The `cloth` pass overwrites their world spheres every frame
+/// (`engine::passes::cloth`); the records only keep the `blocker_spheres` pass's writes meaningful.
+fn cloth_sphere_records(scene: &Scene, cloth: &crate::scene::cloth::Cloth) -> Result<Vec<GpuBlockerSphere>> {
+    let (instance, _) = crate::scene::cloth::cloth_instance(scene, cloth).map_err(GpuError::Other)?;
+    let mesh = &scene.meshes[cloth.mesh];
+    let x: Vec<glam::DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+    let (across, down) = cloth.sphere_grid();
+    let mut out = Vec::with_capacity((across * down) as usize);
+    for b in 0..down {
+        for a in 0..across {
+            let (c, r) = crate::scene::cloth::patch_sphere(cloth, &x, a, b);
+            let c = c.as_vec3();
+            out.push(GpuBlockerSphere {
+                sphere: [c.x, c.y, c.z, r as f32],
+                object: instance as u32,
+                ..GpuBlockerSphere::default()
+            });
+        }
+    }
+    Ok(out)
+}
+
 /// What [`GpuScene::upload`] puts in device memory for blockers and skinning.
 pub struct BlockerData {
     /// One record per world-space sphere (instances in order, spheres of each in file order).
@@ -191,6 +214,9 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
                 ..GpuBlockerSphere::default()
             });
         }
+    }
+    if let Some(cloth) = &b.cloth {
+        rest.extend(cloth_sphere_records(scene, cloth)?);
     }
     if rest.len() > MAX_SPHERES as usize {
         return Err(GpuError::Other(format!("{} blocker spheres, at most {}", rest.len(), MAX_SPHERES)));

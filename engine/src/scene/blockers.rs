@@ -49,6 +49,9 @@ pub struct SceneBlockers {
     /// becomes a rectangle plane blocker (`BlockerPlane::from_flat_mesh` of its world-space vertices:
     /// it must be a flat rectangle); it must have no sphere set and not be thin.
     pub plane_meshes: Vec<bool>,
+    /// The simulated cloth, if any ([`super::cloth`]): a thin grid mesh moved by the `cloth` pass, with
+    /// blocker spheres generated along it every frame for the techniques that do not read thin shells.
+    pub cloth: Option<super::cloth::Cloth>,
 }
 
 impl SceneBlockers {

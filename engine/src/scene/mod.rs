@@ -1,6 +1,7 @@
 //! `engine::scene`: meshes, materials, environment, camera — plain data, no Vulkan.
 
 pub mod blockers;
+pub mod cloth;
 mod env;
 pub mod gltf_import;
 mod mesh;
