@@ -175,7 +175,16 @@ fn hidden_and_half_covered_lights() {
         let hidden = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 1.0)], &[]);
         let left = hidden.radiance()[0] / hidden.u[0];
         eprintln!("hidden light (conservative {conservative}): {left:.2e} of U left, {} leaves", hidden.leaves);
-        assert!(left < 0.02, "{left}");
+        assert!(hidden.hidden && left == 0.0, "{left}");
+        // A blocker of 1.25 α covers the light but not the whole mask: the leaves hide what lies under
+        // it, but the L2 cap lobe of the light (e_cap α² ≈ 1.92) keeps exp(−0.96 · 1.25²) ≈ 22 % of its
+        // integral outside 1.25 α: measured 20 % (conservative) and 27 % (aggressive) left. This is the
+        // cap lobe's shape error (DESIGN §3), not the mask's.
+        let r = 2.0 * (1.25 * (0.4f64 / 4.0).asin()).sin();
+        let mostly = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), r)], &[]);
+        let left = mostly.radiance()[0] / mostly.u[0];
+        eprintln!("light hidden by a 1.25 α blocker (conservative {conservative}): {left:.3} of U left, {} leaves", mostly.leaves);
+        assert!(!mostly.hidden && left < 0.3, "{left}");
         // A plate over x > 0 at height 2: half the light (and half the mask) is covered.
         let plate = BlockerPlane::rectangle(DVec3::new(1.0, 2.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 1.0));
         let half = twin.light_terms(&receiver(n), &l, &[], &[plate]);

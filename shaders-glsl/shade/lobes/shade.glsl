@@ -13,7 +13,9 @@
 // - visibility of light j (§5.3): blockers in the light's mask cone (BVH traversal of the blocker
 //   spheres, leaves only, at most LOBES_MAX_BLOCKERS; plane blockers) classified against the cells
 //   of a quad-tree over a square perpendicular to the light axis (gnomonic coordinates, half-angle
-//   min(extent · α, 1.4)); covered cells are shadow leaves; partial cells split down to `depth`,
+//   min(extent · α, 1.4)); a wholly covered mask hides the light (S = U); covered cells split down
+//   to `split` (so that leaf lobes are narrower than the light's), then are shadow leaves; partial
+//   cells split down to `depth`,
 //   then are dropped (aggressive) or kept (conservative). Each shadow leaf is the cap lobe of its
 //   bounding cone, weighted by w_i = weight · Ω_cell / ∫c_i (its integral equals the cell's solid
 //   angle; the paper's hand-set w_i(dist, depth) replaced by this rule). S = Σ_i Σ_k w_i ∫_{Ω+} (R_k L) c_i.
@@ -53,9 +55,9 @@ struct LobesParams {
     float extent;         // mask half-angle / light half-angle
     uint light_mode;      // 0 lobes, 1 ratio
     uint energy_scale;    // 1: light lobes scaled to the cap's solid angle
+    uint split;           // covered cells split down to this depth
     uint pad0;
     uint pad1;
-    uint pad2;
 };
 layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
@@ -324,8 +326,9 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma) {
 
 // S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half).
 vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t, vec3 b, float tan_half, float u_lum,
-                  inout uint products, inout uint pruned, inout uint leaves) {
+                  inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
     vec3 shadow = vec3(0.0);
+    hidden = false;
     uint stack[LOBES_STACK];
     uint size = 1u;
     stack[0] = 0u;  // (depth, ix, iy) packed as depth | ix << 4 | iy << 16
@@ -355,6 +358,21 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
         int state = lobes_cell_state(q, centre, gamma);
         if (state == 0) continue;
+        // The whole mask covered: the light is hidden (S = U; the cap lobe's tail past the mask is
+        // counted hidden too).
+        if (state == 2 && d == 0u) {
+            hidden = true;
+            return shadow;
+        }
+        // Covered cells split down to `split` so that their lobes are narrower than the light's:
+        // one broad leaf lobe peaks at ~0.6 and leaves its centre lit.
+        if (state == 2 && d < min(lp.split, depth_max)) {
+            for (uint k = 0u; k < 4u; ++k) {
+                stack[size] = (d + 1u) | ((2u * ix + (k & 1u)) << 4) | ((2u * iy + (k >> 1)) << 16);
+                size += 1u;
+            }
+            continue;
+        }
         if (state == 1) {
             if (d < depth_max) {
                 for (uint k = 0u; k < 4u; ++k) {
@@ -455,7 +473,9 @@ vec3 shade_point(ShadePoint sp) {
                 g_p = p;
                 vec3 t, b;
                 orthonormal_basis(axis, t, b);
-                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, products, pruned, leaves);
+                bool hidden;
+                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, products, pruned, leaves, hidden);
+                if (hidden) s = u;
             }
             float vis = u_lum > 0.0 ? clamp(1.0 - lobes_lum(s) / u_lum, 0.0, 1.0) : 1.0;
             if (lp.light_mode == 1u) {

@@ -56,6 +56,8 @@ pub struct LightTerms {
     pub pruned: usize,
     /// False: the receiver is inside the light (the shader then adds the closed form).
     pub outside: bool,
+    /// The whole mask was covered (S = U).
+    pub hidden: bool,
 }
 
 impl LightTerms {
@@ -318,7 +320,20 @@ impl Twin {
             }
             let centre = (axis + tan_half * (cx * t + cy * b)).normalize();
             let gamma = q.iter().map(|x| angle_between(centre.to_array(), x.to_array())).fold(0.0, f64::max);
-            match state(&q, centre, gamma) {
+            let st = state(&q, centre, gamma);
+            if st == 2 && d == 0 {
+                // The whole mask covered: hidden (S = U).
+                out.s = out.u;
+                out.hidden = true;
+                return out;
+            }
+            if st == 2 && d < o.split.min(depth_max) {
+                for k in 0..4u32 {
+                    stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));
+                }
+                continue;
+            }
+            match st {
                 0 => continue,
                 1 if d < depth_max => {
                     // Pushed in the shader's order (k = 0..3), popped last first.
