@@ -7,7 +7,7 @@ use engine::blockers::{BlockerPlane, Sphere};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
 use engine::passes::shade::lobes::cpu::{TwinLight, TwinReceiver, Twin};
-use engine::passes::shade::lobes::LobesOptions;
+use engine::passes::shade::lobes::{Leaves, LobesOptions};
 use engine::renderer::RenderSettings;
 use engine::scene::{Scene, SphereLight};
 use engine_tests::{assert_finite, render_with_gbuffer, rgb};
@@ -92,15 +92,15 @@ fn gpu_matches_the_f64_twin() {
     let fill = light([0.9, 1.6, 0.4], 0.15, [20.0, 20.0, 24.0]);
     let rect = BlockerPlane::rectangle(DVec3::new(0.8, 1.0, 0.2), DVec3::new(0.25, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.2));
     let cases: Vec<(&str, LobesOptions, Vec<BlockerPlane>)> = vec![
-        ("lobes:theta_max=0", LobesOptions { theta_max_deg: 0.0, ..Default::default() }, vec![]),
+        ("lobes", LobesOptions::default(), vec![]),
         (
-            "lobes:theta_max=0,leaves=aggressive,depth=5,light_scale=paper",
-            LobesOptions { theta_max_deg: 0.0, conservative: false, depth: 5, energy: false, ..Default::default() },
+            "lobes:leaves=aggressive,depth=5,light_scale=paper",
+            LobesOptions { leaves: Leaves::Aggressive, depth: 5, energy: false, ..Default::default() },
             vec![],
         ),
         (
-            "lobes:theta_max=0",
-            LobesOptions { theta_max_deg: 0.0, ..Default::default() },
+            "lobes",
+            LobesOptions::default(),
             vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect],
         ),
     ];
@@ -127,9 +127,9 @@ fn hard_lights_are_finite_and_match_the_twin() {
     ];
     let rect = BlockerPlane::rectangle(DVec3::new(0.3, 1.5, 0.6), DVec3::new(0.3, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.3));
     let (s, world) = scene(lights, vec![rect]);
-    let o = LobesOptions { theta_max_deg: 0.0, ..Default::default() };
-    let errs = compare(&gpu, &s, &world, "lobes:theta_max=0", &o);
-    check(&errs, "lobes:theta_max=0", "hard lights", 2e-3, 0.05);
+    let o = LobesOptions::default();
+    let errs = compare(&gpu, &s, &world, "lobes", &o);
+    check(&errs, "lobes", "hard lights", 2e-3, 0.05);
     gpu.shutdown().expect("clean teardown");
 }
 
@@ -150,7 +150,7 @@ fn one_light_without_blockers_is_the_analytic_lobe_integral() {
             let l = TwinLight { center: DVec3::new(0.0, dist, 0.0), radius, radiance: [1.0; 3] };
             let t = twin.light_terms(&receiver(n), &l, &[], &[]);
             let alpha = (radius / dist).asin();
-            let lobe = twin.cap_lobe(DVec3::Y, alpha, [1.0; 3], energy);
+            let lobe = twin.cap_lobe(DVec3::Y, alpha, [1.0; 3], energy, 1.0);
             let want = lobe.s[0] / PI * clamped_cosine_integral(lobe.e, n.y);
             let e = (t.u[0] - want).abs() / want;
             worst = worst.max(e);
@@ -169,12 +169,12 @@ fn one_light_without_blockers_is_the_analytic_lobe_integral() {
 fn hidden_and_half_covered_lights() {
     let n = DVec3::Y;
     let l = TwinLight { center: DVec3::new(0.0, 4.0, 0.0), radius: 0.4, radiance: [1.0; 3] };
-    for conservative in [true, false] {
-        let twin = Twin::new(&LobesOptions { conservative, depth: 5, ..Default::default() }).expect("tables");
+    for leaves in [Leaves::Half, Leaves::Conservative, Leaves::Aggressive] {
+        let twin = Twin::new(&LobesOptions { leaves, depth: 5, ..Default::default() }).expect("tables");
         // A sphere of radius 1 at height 2 subtends 30°, the light 5.7° (mask 8.6°): fully hidden.
         let hidden = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 1.0)], &[]);
         let left = hidden.radiance()[0] / hidden.u[0];
-        eprintln!("hidden light (conservative {conservative}): {left:.2e} of U left, {} leaves", hidden.leaves);
+        eprintln!("hidden light ({leaves:?}): {left:.2e} of U left, {} leaves", hidden.leaves);
         assert!(hidden.hidden && left == 0.0, "{left}");
         // A blocker of 1.25 α covers the light but not the whole mask: the leaves hide what lies under
         // it, but the L2 cap lobe of the light (e_cap α² ≈ 1.92) keeps exp(−0.96 · 1.25²) ≈ 22 % of its
@@ -183,13 +183,13 @@ fn hidden_and_half_covered_lights() {
         let r = 2.0 * (1.25 * (0.4f64 / 4.0).asin()).sin();
         let mostly = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), r)], &[]);
         let left = mostly.radiance()[0] / mostly.u[0];
-        eprintln!("light hidden by a 1.25 α blocker (conservative {conservative}): {left:.3} of U left, {} leaves", mostly.leaves);
+        eprintln!("light hidden by a 1.25 α blocker ({leaves:?}): {left:.3} of U left, {} leaves", mostly.leaves);
         assert!(!mostly.hidden && left < 0.3, "{left}");
         // A plate over x > 0 at height 2: half the light (and half the mask) is covered.
         let plate = BlockerPlane::rectangle(DVec3::new(1.0, 2.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 1.0));
         let half = twin.light_terms(&receiver(n), &l, &[], &[plate]);
         let v = half.visibility();
-        eprintln!("half-covered light (conservative {conservative}): visibility {v:.4}");
+        eprintln!("half-covered light ({leaves:?}): visibility {v:.4}");
         assert!((v - 0.5).abs() < 0.05, "{v}");
     }
 }

@@ -7,7 +7,9 @@
 //   k_s (s+8)/(8π) (n·h)^s as the Phong lobe (r, e = s/4) times the cosine lobe (n, 1) through the
 //   product table. Other specular kinds: the exact SG light term times the light's lobe visibility.
 // - each spherical light j as one cap lobe (§5.2: axis to the centre, e_cap from the cap table),
-//   scaled by L (light_scale=paper) or so that its integral is the cap's solid angle (=energy).
+//   scaled by L (light_scale=paper) or so that its integral is the cap's solid angle (=energy);
+//   `sharpen` multiplies its exponent (1: the paper's L2 fit, which keeps ~38 % of its integral
+//   outside the cap and so widens penumbrae).
 // - R × L first (§5.4), each product from the product table; U = Σ ∫_{Ω+} (R_k L) from the
 //   hemisphere table (§4.2).
 // - visibility of light j (§5.3): blockers in the light's mask cone (BVH traversal of the blocker
@@ -22,12 +24,11 @@
 //   Leaves are streamed (no leaf list); products whose integral is below threshold · U are pruned.
 // - light j adds max(U − S, 0) (light=lobes) or the exact unshadowed term times
 //   clamp(1 − S/U, 0, 1) (light=ratio, luminance-weighted).
-// - environment: the shared irradiance (diffuse) and prefiltered (glossy) terms times the
-//   visibility estimate V = clamp(1 − O/π, 0, 1), O = Σ over the blockers of the BVH cut of the
-//   cosine-weighted occlusion of each: a sphere as its energy-scaled cap lobe × the cosine lobe
-//   (product and hemisphere tables); a half-space exactly π(1 − n·m)/2; a rectangle as the cap of
-//   its solid angle about its cone's mean direction. Overlapping blockers are summed (the paper's
-//   Eq. 38 to first order), so overlaps over-darken: measured in the README.
+// - environment: diffuse ρ/π max(E(n) − S_env, 0), E the shared irradiance, S_env from the same
+//   mask machinery about n against the cosine lobe, each shadow leaf's product weighted by the
+//   prefiltered environment at its axis (as isg's diffuse=map weighs its patches); half-spaces
+//   multiply by their exact cosine-weighted visibility (1 + n·m)/2. Glossy: the shared prefiltered
+//   term times the diffuse visibility (luminance ratio).
 // Overflow (more blockers in a light's cone than LOBES_MAX_BLOCKERS) is counted in LobesStats.
 #include "../common.glsl"
 #include "../prefiltered.glsl"
@@ -47,7 +48,6 @@ layout(std430, binding = 13) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 // Twin: engine::passes::shade::lobes::GpuLobesParams.
 struct LobesParams {
     uint sphere_count;
-    float sin_theta_max;  // environment cut (SHEXP Eq. 36); 0: leaves only
     uint depth;           // maximal quad-tree depth
     uint conservative;    // 1: partial leaves at the maximal depth shadow
     float threshold;      // t_i, relative to the light's unshadowed lobe integral U
@@ -56,6 +56,7 @@ struct LobesParams {
     uint light_mode;      // 0 lobes, 1 ratio
     uint energy_scale;    // 1: light lobes scaled to the cap's solid angle
     uint split;           // covered cells split down to this depth
+    float sharpen;        // the light lobes' exponent is e_cap times this
     uint pad0;
     uint pad1;
 };
@@ -73,7 +74,7 @@ layout(std430, binding = 21) readonly buffer BlockerPlanes {
 #define LOBES_HEMI_NE 769
 #define LOBES_HEMI_NY 129
 #define LOBES_CAP_N 1000
-#define LOBES_MAX_BLOCKERS 48
+#define LOBES_MAX_BLOCKERS 64
 #define LOBES_MAX_DEPTH 6
 #define LOBES_STACK (3 * LOBES_MAX_DEPTH + 1)
 #define LOBES_MAX_R 2
@@ -161,10 +162,10 @@ float lobes_cap_solid_angle(float alpha) {
 
 // The cap lobe of half-angle alpha about axis, scaled so that its integral is the cap's solid
 // angle times `scale` (energy) or by `scale` alone.
-Lobe lobes_cap_lobe(vec3 axis, float alpha, vec3 scale, bool energy) {
+Lobe lobes_cap_lobe(vec3 axis, float alpha, vec3 scale, bool energy, float sharpen) {
     Lobe c;
     c.axis = axis;
-    c.e = lobes_cap_exponent(alpha);
+    c.e = lobes_cap_exponent(alpha) * sharpen;
     c.s = energy ? scale * (lobes_cap_solid_angle(alpha) * (c.e + 1.0) / (2.0 * LOBES_PI)) : scale;
     return c;
 }
@@ -178,71 +179,10 @@ float lobes_triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Environment visibility.
-
-float g_occlusion;
-vec3 g_p;
-vec3 g_n;
-
-void lobes_env_visit(vec4 s) {
-    vec4 b;
-    if (!blocker_for_receiver(g_p, g_n, s, b)) return;
-    if (!(b.w > 0.0)) return;
-    float alpha = sphere_subtended_half_angle(g_p, b);
-    Lobe cap = lobes_cap_lobe(normalize(b.xyz - g_p), alpha, vec3(1.0), true);
-    Lobe cosine;
-    cosine.axis = g_n;
-    cosine.e = 1.0;
-    cosine.s = vec3(1.0);
-    g_occlusion += lobes_hemisphere_integral(lobes_mul(cap, cosine), g_n).x;
-}
-#define BVH_CUT_VISIT(index, s) lobes_env_visit(s)
-#include "../../common/bvh_cut.glsl"
-
-// The cone mean direction of a rectangle seen from the origin (Arvo: ½ Σ Θ_e n_e), towards c.
-vec3 lobes_cone_mean(vec3 a[4], vec3 c) {
-    vec3 mean = vec3(0.0);
-    for (int k = 0; k < 4; ++k) {
-        vec3 x = cross(a[k], a[(k + 1) & 3]);
-        float lx = length(x);
-        if (lx > 0.0) mean += 0.5 * atan(lx, dot(a[k], a[(k + 1) & 3])) * x / lx;
-    }
-    if (dot(mean, c) < 0.0) mean = -mean;
-    return dot(mean, mean) > 0.0 ? normalize(mean) : normalize(c);
-}
-
-// V = clamp(1 − O/π, 0, 1) at p (see the header).
-float lobes_env_visibility(vec3 p, vec3 n) {
-    g_occlusion = 0.0;
-    g_p = p;
-    g_n = n;
-    if (lp.sphere_count > 0u) bvh_cut(lp.sphere_count, vec4(p, 0.0), lp.sin_theta_max, p, n, 0.5 * PI);
-    for (uint i = 0u; i < plane_count; ++i) {
-        BlockerPlane pl = blocker_planes[i];
-        if (!plane_blocks_receiver(pl, p)) continue;
-        if (!plane_is_rectangle(pl)) {
-            g_occlusion += 0.5 * PI * (1.0 - clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
-        } else {
-            vec3 c = pl.center.xyz - p;
-            vec3 a[4] = vec3[4](c - pl.half_u.xyz - pl.half_v.xyz, c + pl.half_u.xyz - pl.half_v.xyz,
-                                c + pl.half_u.xyz + pl.half_v.xyz, c - pl.half_u.xyz + pl.half_v.xyz);
-            float omega = lobes_triangle_solid_angle(a[0], a[1], a[2]) + lobes_triangle_solid_angle(a[0], a[2], a[3]);
-            // The cap of solid angle Ω: 1 − cos α = Ω/2π.
-            float alpha = acos(clamp(1.0 - omega / (2.0 * PI), -1.0, 1.0));
-            Lobe cap = lobes_cap_lobe(lobes_cone_mean(a, c), alpha, vec3(1.0), true);
-            Lobe cosine;
-            cosine.axis = n;
-            cosine.e = 1.0;
-            cosine.s = vec3(1.0);
-            g_occlusion += lobes_hemisphere_integral(lobes_mul(cap, cosine), n).x;
-        }
-    }
-    return clamp(1.0 - g_occlusion / PI, 0.0, 1.0);
-}
-
-// ---------------------------------------------------------------------------------------------
 // Light visibility: the quad-tree mask.
 
+vec3 g_p;
+vec3 g_n;
 vec4 g_blockers[LOBES_MAX_BLOCKERS];  // (unit direction, half-angle) seen from g_p
 uint g_blocker_count;
 bool g_overflow;
@@ -288,7 +228,7 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float half_angle) {
 
 // 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit;
 // gamma: the cell's bounding-cone half-angle.
-int lobes_cell_state(vec3 q[4], vec3 centre, float gamma) {
+int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool halfspaces) {
     bool partial = false;
     for (uint i = 0u; i < g_blocker_count; ++i) {
         vec4 b = g_blockers[i];
@@ -301,6 +241,7 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, g_p)) continue;
         if (!plane_is_rectangle(pl)) {
+            if (!halfspaces) continue;
             // Blocked: m·ω < 0 (a great circle: a line in the mask's gnomonic plane, so the corners decide).
             int k = 0;
             for (int c = 0; c < 4; ++c) k += dot(pl.plane.xyz, q[c]) < 0.0 ? 1 : 0;
@@ -326,7 +267,7 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma) {
 
 // S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half).
 vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t, vec3 b, float tan_half, float u_lum,
-                  inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
+                  bool halfspaces, bool env, inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
     vec3 shadow = vec3(0.0);
     hidden = false;
     uint stack[LOBES_STACK];
@@ -356,7 +297,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         vec3 centre = normalize(axis + tan_half * (cx * t + cy * b));
         float gamma = 0.0;
         for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
-        int state = lobes_cell_state(q, centre, gamma);
+        int state = lobes_cell_state(q, centre, gamma, halfspaces);
         if (state == 0) continue;
         // The whole mask covered: the light is hidden (S = U; the cap lobe's tail past the mask is
         // counted hidden too).
@@ -385,13 +326,15 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
             }
             if (lp.conservative == 0u) continue;
         }
+        // leaves=half: a partial leaf at the maximal depth counts half covered.
+        float leaf_weight = (state == 1 && lp.conservative == 2u) ? 0.5 : 1.0;
         // A shadow leaf: the cap lobe of its bounding cone, w_i = weight Ω_cell / ∫c_i.
         leaves += 1u;
         float omega = lobes_triangle_solid_angle(raw[0], raw[1], raw[2]) + lobes_triangle_solid_angle(raw[0], raw[2], raw[3]);
         Lobe c;
         c.axis = centre;
         c.e = lobes_cap_exponent(gamma);
-        c.s = vec3(lp.weight * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
+        c.s = vec3(leaf_weight * lp.weight * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
         for (int k = 0; k < rl_count; ++k) {
             Lobe pr = lobes_mul(rl[k], c);
             products += 1u;
@@ -400,10 +343,52 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
                 pruned += 1u;
                 continue;
             }
+            // The environment: each leaf's occluded light read from the prefiltered environment
+            // at the leaf's axis, filtered like the leaf lobe (cos^e ≈ an SG of sharpness e).
+            if (env) v *= prefiltered_lookup(prefiltered_env, c.axis, max(c.e, 1.0));
             shadow += v;
         }
     }
     return shadow;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Environment: the same quad-tree mask about n over the widest square (half-angle 1.4 rad: the
+// directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked),
+// against the cosine lobe; each shadow leaf's product integral is weighted by the prefiltered
+// environment at its axis. Returns the occluded irradiance S_env (RGB); `hidden`: the whole mask is
+// covered. Half-spaces are left out of the mask: `v_hs` is their exact cosine-weighted visibility
+// (1 + n·m)/2 (products of several), which multiplies the result.
+vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout uint products, inout uint pruned,
+                         inout uint leaves, inout uint overflow) {
+    hidden = false;
+    v_hs = 1.0;
+    bool any_rect = false;
+    for (uint i = 0u; i < plane_count; ++i) {
+        BlockerPlane pl = blocker_planes[i];
+        if (!plane_blocks_receiver(pl, p)) continue;
+        if (plane_is_rectangle(pl)) {
+            any_rect = true;
+        } else {
+            v_hs *= 0.5 * (1.0 + clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
+        }
+    }
+    if (lp.sphere_count == 0u && !any_rect) return vec3(0.0);
+    Lobe rl[LOBES_MAX_R];
+    rl[0].axis = n;
+    rl[0].e = 1.0;
+    rl[0].s = vec3(1.0);
+    rl[1] = rl[0];
+    float u = lobes_hemisphere_integral(rl[0], n).x;
+    float tan_half = tan(LOBES_MASK_MAX_HALF_ANGLE);
+    g_blocker_count = 0u;
+    g_overflow = false;
+    if (lp.sphere_count > 0u) lobes_collect(p, n, n, atan(tan_half * sqrt(2.0)));
+    if (g_overflow) overflow = 1u;
+    g_p = p;
+    vec3 t, b;
+    orthonormal_basis(n, t, b);
+    return lobes_shadow(rl, 1, n, n, t, b, tan_half, u, false, true, products, pruned, leaves, hidden);
 }
 
 vec3 shade_point(ShadePoint sp) {
@@ -412,10 +397,19 @@ vec3 shade_point(ShadePoint sp) {
     uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
 
     // Environment: shared unshadowed terms times the lobe visibility estimate.
-    float v_env = lobes_env_visibility(p, n);
+    bool env_hidden;
+    float v_hs;
+    vec3 s_env = lobes_env_occlusion(p, n, env_hidden, v_hs, products, pruned, leaves, overflow);
+    vec3 e_free = irradiance_lookup(irradiance_map, n);
+    vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_hs;
     vec3 rho = sp.material.diffuse.rgb;
-    vec3 result = rho / PI * irradiance_lookup(irradiance_map, n) * v_env;
-    if (brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+    vec3 result = rho / PI * e_env;
+    if (brdf_has_specular(sp.material)) {
+        // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).
+        float den = lobes_lum(e_free);
+        float v_env = den > 0.0 ? clamp(lobes_lum(e_env) / den, 0.0, 1.0) : 1.0;
+        result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+    }
 
     if (light_count > 0u) {
         SpecLobe sg[BRDF_MAX_LOBES];
@@ -451,7 +445,7 @@ vec3 shade_point(ShadePoint sp) {
                 continue;
             }
             float alpha = atan(sa, ca);
-            Lobe light = lobes_cap_lobe(axis, alpha, lights[j].radiance, lp.energy_scale == 1u);
+            Lobe light = lobes_cap_lobe(axis, alpha, lights[j].radiance, lp.energy_scale == 1u, lp.sharpen);
             Lobe rl[LOBES_MAX_R];
             vec3 u = vec3(0.0);
             for (int k = 0; k < r_count; ++k) {
@@ -474,7 +468,7 @@ vec3 shade_point(ShadePoint sp) {
                 vec3 t, b;
                 orthonormal_basis(axis, t, b);
                 bool hidden;
-                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, products, pruned, leaves, hidden);
+                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, true, false, products, pruned, leaves, hidden);
                 if (hidden) s = u;
             }
             float vis = u_lum > 0.0 ? clamp(1.0 - lobes_lum(s) / u_lum, 0.0, 1.0) : 1.0;

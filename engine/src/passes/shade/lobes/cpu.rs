@@ -2,10 +2,10 @@
 //! asset files the GPU uploads), the same reflectance and light lobes, the same quad-tree (frame,
 //! cell order, classification, leaf lobes and weights), the same environment occlusion, in f64.
 //! The GPU's BVH traversal visits exactly the leaves whose sphere meets the mask cone, which is
-//! what [`Twin`] does over the sphere list (the environment at `theta_max = 0`).
+//! what [`Twin`] does over the sphere list.
 //! Covers `light=lobes` (both light scales, both leaf modes); `light=ratio` reuses the same S/U.
 
-use super::LobesOptions;
+use super::{Leaves, LobesOptions};
 use crate::tables::default_dir;
 use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
 use engine_blockers::plane::BlockerPlane;
@@ -159,8 +159,8 @@ impl Twin {
     }
 
     /// The cap lobe of half-angle α (energy: its integral is the cap's solid angle × scale).
-    pub fn cap_lobe(&self, axis: DVec3, alpha: f64, scale: [f64; 3], energy: bool) -> RgbLobe {
-        let e = self.cap.exponent(alpha);
+    pub fn cap_lobe(&self, axis: DVec3, alpha: f64, scale: [f64; 3], energy: bool, sharpen: f64) -> RgbLobe {
+        let e = self.cap.exponent(alpha) * sharpen as f32 as f64;
         let f = if energy { cap_solid_angle(alpha) * (e + 1.0) / (2.0 * PI) } else { 1.0 };
         RgbLobe { axis, e, s: scale.map(|s| s * f) }
     }
@@ -169,37 +169,29 @@ impl Twin {
         RgbLobe { axis: n, e: 1.0, s: [1.0; 3] }
     }
 
-    /// The environment's visibility estimate clamp(1 − O/π, 0, 1) (every leaf: `theta_max = 0`).
+    /// The environment's visibility under a constant environment (where the shader's prefiltered
+    /// weights are that constant): 1 − S/U of the cosine lobe through the mask about n (half-angle
+    /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
+    /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
+    /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
     pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> f64 {
-        let mut o = 0.0;
-        let cone = Cone::new(p, n, 0.5 * PI);
-        for s in spheres {
-            if !cone_intersects_sphere(&cone, s) {
-                continue;
-            }
-            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
-            if b.radius <= 0.0 {
-                continue;
-            }
-            let alpha = subtended_half_angle(p, &b);
-            let cap = self.cap_lobe((b.center - p).normalize(), alpha, [1.0; 3], true);
-            o += self.hemisphere_integral(&self.mul(&cap, &Self::cosine(n)), n)[0];
+        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| pl.blocks_receiver(p)).collect();
+        let mut v_hs = 1.0;
+        for pl in active.iter().filter(|pl| pl.corners().is_none()) {
+            v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0));
         }
-        for pl in planes.iter().filter(|pl| pl.blocks_receiver(p)) {
-            match pl.corners() {
-                None => o += 0.5 * PI * (1.0 - n.dot(pl.normal).clamp(-1.0, 1.0)),
-                Some(k) => {
-                    let a = k.map(|x| x - p);
-                    let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
-                    let alpha = (1.0 - omega / (2.0 * PI)).clamp(-1.0, 1.0).acos();
-                    let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
-                    let axis = super::super::shexp::cpu::cone_mean_direction(&a, centre).normalize();
-                    let cap = self.cap_lobe(axis, alpha, [1.0; 3], true);
-                    o += self.hemisphere_integral(&self.mul(&cap, &Self::cosine(n)), n)[0];
-                }
-            }
+        if spheres.is_empty() && !active.iter().any(|pl| pl.corners().is_some()) {
+            return v_hs;
         }
-        (1.0 - o / PI).clamp(0.0, 1.0)
+        let rl = [Self::cosine(n)];
+        let u = self.hemisphere_integral(&rl[0], n)[0];
+        let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
+        self.mask(&mut out, p, n, n, super::MASK_MAX_HALF_ANGLE.tan(), &rl, spheres, planes, false);
+        if out.hidden {
+            0.0
+        } else {
+            (1.0 - out.s[0] / u).max(0.0) * v_hs
+        }
     }
 
     /// The reflectance lobes f_r · cos at the receiver (Lambert; Blinn-Phong as Phong × cosine).
@@ -232,7 +224,7 @@ impl Twin {
         out.outside = true;
         let axis = d / dist;
         let alpha = light.radius.max(0.0).atan2(((dist - light.radius) * (dist + light.radius)).max(0.0).sqrt());
-        let light_lobe = self.cap_lobe(axis, alpha, light.radiance, o.energy);
+        let light_lobe = self.cap_lobe(axis, alpha, light.radiance, o.energy, o.sharpen);
         let rl: Vec<RgbLobe> = self.reflectance(r).iter().map(|c| self.mul(c, &light_lobe)).collect();
         out.products = rl.len() + usize::from(r.phong.is_some());
         for c in &rl {
@@ -243,8 +235,28 @@ impl Twin {
         if !(u_lum > 0.0) || (spheres.is_empty() && planes.is_empty()) {
             return out;
         }
-        let half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE);
-        let tan_half = half.tan();
+        let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
+        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true);
+        out
+    }
+
+    /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
+    /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale).
+    #[allow(clippy::too_many_arguments)]
+    pub fn mask(
+        &self,
+        out: &mut LightTerms,
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        tan_half: f64,
+        rl: &[RgbLobe],
+        spheres: &[Sphere],
+        planes: &[BlockerPlane],
+        halfspaces: bool,
+    ) {
+        let o = &self.options;
+        let u_lum = lum(out.u);
         let corner = (tan_half * 2f64.sqrt()).atan();
         // Blockers in the mask cone, as (direction, half-angle).
         let cone = Cone::new(p, axis, corner);
@@ -281,6 +293,7 @@ impl Twin {
             }
             for pl in &active {
                 match pl.edge_normals(p) {
+                    None if !halfspaces => {}
                     None => {
                         let k = q.iter().filter(|x| pl.normal.dot(**x) < 0.0).count();
                         if k == 4 {
@@ -325,7 +338,7 @@ impl Twin {
                 // The whole mask covered: hidden (S = U).
                 out.s = out.u;
                 out.hidden = true;
-                return out;
+                return;
             }
             if st == 2 && d < o.split.min(depth_max) {
                 for k in 0..4u32 {
@@ -342,14 +355,15 @@ impl Twin {
                     }
                     continue;
                 }
-                1 if !o.conservative => continue,
+                1 if o.leaves == Leaves::Aggressive => continue,
                 _ => {}
             }
+            let leaf_weight = if st == 1 && o.leaves == Leaves::Half { 0.5 } else { 1.0 };
             out.leaves += 1;
             let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
             let e = self.cap.exponent(gamma);
-            let leaf = RgbLobe { axis: centre, e, s: [o.weight * omega * (e + 1.0) / (2.0 * PI); 3] };
-            for c in &rl {
+            let leaf = RgbLobe { axis: centre, e, s: [leaf_weight * o.weight * omega * (e + 1.0) / (2.0 * PI); 3] };
+            for c in rl {
                 let v = self.hemisphere_integral(&self.mul(c, &leaf), n);
                 out.products += 1;
                 if lum(v) < o.threshold * u_lum {
@@ -359,6 +373,5 @@ impl Twin {
                 (0..3).for_each(|k| out.s[k] += v[k]);
             }
         }
-        out
     }
 }

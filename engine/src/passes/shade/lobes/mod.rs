@@ -13,8 +13,8 @@
 //!   hides the light); aggressive or conservative leaves; one cap lobe per
 //!   shadow leaf from its bounding cone, weighted so that its integral is the cell's solid angle
 //!   (times `weight`: the paper's hand-set w_i(dist, depth) are not reproduced);
-//! - the environment: the shared irradiance / prefiltered terms times a first-order lobe occlusion
-//!   estimate (each blocker's cap lobe × the cosine lobe, summed).
+//! - the environment: the shared irradiance / prefiltered terms times the visibility of the cosine
+//!   lobe through the same kind of mask about the normal (half-angle 1.4 rad), half-spaces exactly.
 //!
 //! Bounds per invocation: [`MAX_BLOCKERS`] blockers per light (more are counted as overflow in
 //! [`LobesStats`] and dropped), quad-tree depth ≤ 6 (stack 19 cells), two reflectance lobes.
@@ -29,7 +29,7 @@ use engine_math::table_gen::MathTable;
 pub mod cpu;
 
 /// Blockers kept per light and receiver (LOBES_MAX_BLOCKERS in shade.glsl).
-pub const MAX_BLOCKERS: usize = 48;
+pub const MAX_BLOCKERS: usize = 64;
 /// Deepest quad-tree the shader supports (LOBES_MAX_DEPTH).
 pub const MAX_DEPTH: u32 = 6;
 /// The mask's half-angle never exceeds this (radians; LOBES_MASK_MAX_HALF_ANGLE).
@@ -53,9 +53,9 @@ pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         key: "leaves",
         aliases: &[],
-        kind: Kind::Choice(&["aggressive", "conservative"]),
-        default: Some("conservative"),
-        help: "partially covered cells at the maximal depth: aggressive (lit, the paper) or conservative (shadow)",
+        kind: Kind::Choice(&["half", "aggressive", "conservative"]),
+        default: Some("half"),
+        help: "partially covered cells at the maximal depth: half (half-weight shadow leaves; ours), aggressive (lit, the paper) or conservative (shadow)",
     },
     OptionSpec {
         key: "threshold",
@@ -86,18 +86,18 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "light term: lobes (max(U − S, 0), the paper) or ratio (the exact unshadowed light × (1 − S/U))",
     },
     OptionSpec {
+        key: "sharpen",
+        aliases: &[],
+        kind: Kind::closed(1.0, 16.0),
+        default: Some("1"),
+        help: "the light lobe's exponent is e_cap times this (1: the paper's L2 cap fit, whose tail past the cap widens penumbrae)",
+    },
+    OptionSpec {
         key: "light_scale",
         aliases: &[],
         kind: Kind::Choice(&["energy", "paper"]),
         default: Some("energy"),
         help: "light lobe scale: energy (its integral is the cap's solid angle × L) or paper (L, Eq. 31)",
-    },
-    OptionSpec {
-        key: "theta_max",
-        aliases: &[],
-        kind: Kind::closed(0.0, 90.0),
-        default: Some("10"),
-        help: "BVH cut angle θ_max in degrees for the environment's occlusion (0: leaves only)",
     },
 ];
 
@@ -121,12 +121,23 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     create: |gpu, o| Ok(Box::new(Lobes::new(gpu, LobesOptions::from_options(o))?)),
 };
 
+/// Partially covered cells at the maximal depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Leaves {
+    /// Dropped (lit): the paper's choice.
+    Aggressive = 0,
+    /// Shadow leaves.
+    Conservative = 1,
+    /// Shadow leaves of half weight.
+    Half = 2,
+}
+
 /// The typed options (see [`OPTIONS`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LobesOptions {
     pub depth: u32,
     pub split: u32,
-    pub conservative: bool,
+    pub leaves: Leaves,
     pub threshold: f64,
     pub weight: f64,
     pub extent: f64,
@@ -134,7 +145,7 @@ pub struct LobesOptions {
     pub ratio: bool,
     /// `light_scale=energy`.
     pub energy: bool,
-    pub theta_max_deg: f64,
+    pub sharpen: f64,
 }
 
 impl Default for LobesOptions {
@@ -142,13 +153,13 @@ impl Default for LobesOptions {
         Self {
             depth: 4,
             split: 3,
-            conservative: true,
+            leaves: Leaves::Half,
             threshold: 1e-4,
             weight: 1.0,
             extent: 1.5,
             ratio: false,
             energy: true,
-            theta_max_deg: 10.0,
+            sharpen: 1.0,
         }
     }
 }
@@ -158,13 +169,17 @@ impl LobesOptions {
         Self {
             depth: o.int("depth") as u32,
             split: o.int("split") as u32,
-            conservative: o.choice("leaves") == "conservative",
+            leaves: match o.choice("leaves") {
+                "aggressive" => Leaves::Aggressive,
+                "conservative" => Leaves::Conservative,
+                _ => Leaves::Half,
+            },
             threshold: o.float("threshold"),
             weight: o.float("weight"),
             extent: o.float("extent"),
             ratio: o.choice("light") == "ratio",
             energy: o.choice("light_scale") == "energy",
-            theta_max_deg: o.float("theta_max"),
+            sharpen: o.float("sharpen"),
         }
     }
 }
@@ -174,7 +189,6 @@ impl LobesOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuLobesParams {
     pub sphere_count: u32,
-    pub sin_theta_max: f32,
     pub depth: u32,
     pub conservative: u32,
     pub threshold: f32,
@@ -184,6 +198,7 @@ pub struct GpuLobesParams {
     pub light_mode: u32,
     pub energy_scale: u32,
     pub split: u32,
+    pub sharpen: f32,
     pub pad: [u32; 2],
 }
 
@@ -191,15 +206,15 @@ pub struct GpuLobesParams {
 pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
     GpuLobesParams {
         sphere_count,
-        sin_theta_max: o.theta_max_deg.to_radians().sin() as f32,
         depth: o.depth.min(MAX_DEPTH),
-        conservative: o.conservative as u32,
+        conservative: o.leaves as u32,
         threshold: o.threshold as f32,
         weight: o.weight as f32,
         extent: o.extent as f32,
         light_mode: o.ratio as u32,
         energy_scale: o.energy as u32,
         split: o.split,
+        sharpen: o.sharpen as f32,
         pad: [0; 2],
     }
 }
