@@ -26,8 +26,9 @@
 //   clamp(1 − S/U, 0, 1) (light=ratio, luminance-weighted).
 // - environment: diffuse ρ/π max(E(n) − S_env, 0), E the shared irradiance, S_env from the same
 //   mask machinery about n against the cosine lobe, each shadow leaf's product weighted by the
-//   prefiltered environment at its axis (as isg's diffuse=map weighs its patches); half-spaces
-//   multiply by their exact cosine-weighted visibility (1 + n·m)/2. Glossy: the shared prefiltered
+//   prefiltered environment at its axis (as isg's diffuse=map weighs its patches); plane blockers
+//   multiply by their cosine-weighted visibility (exact for half-spaces, an equal-solid-angle cap
+//   lobe for rectangles). Glossy: the shared prefiltered
 //   term times the diffuse visibility (luminance ratio).
 // Overflow (more blockers in a light's cone than LOBES_MAX_BLOCKERS) is counted in LobesStats.
 #include "../common.glsl"
@@ -228,7 +229,7 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float half_angle) {
 
 // 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit;
 // gamma: the cell's bounding-cone half-angle.
-int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool halfspaces) {
+int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes) {
     bool partial = false;
     for (uint i = 0u; i < g_blocker_count; ++i) {
         vec4 b = g_blockers[i];
@@ -237,11 +238,10 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool halfspaces) {
         if (dot(q[0], b.xyz) >= cb && dot(q[1], b.xyz) >= cb && dot(q[2], b.xyz) >= cb && dot(q[3], b.xyz) >= cb) return 2;
         partial = true;
     }
-    for (uint i = 0u; i < plane_count; ++i) {
+    for (uint i = 0u; i < (planes ? plane_count : 0u); ++i) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, g_p)) continue;
         if (!plane_is_rectangle(pl)) {
-            if (!halfspaces) continue;
             // Blocked: m·ω < 0 (a great circle: a line in the mask's gnomonic plane, so the corners decide).
             int k = 0;
             for (int c = 0; c < 4; ++c) k += dot(pl.plane.xyz, q[c]) < 0.0 ? 1 : 0;
@@ -267,13 +267,13 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool halfspaces) {
 
 // S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half).
 vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t, vec3 b, float tan_half, float u_lum,
-                  bool halfspaces, bool env, inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
+                  bool planes, bool env, uint depth_req, inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
     vec3 shadow = vec3(0.0);
     hidden = false;
     uint stack[LOBES_STACK];
     uint size = 1u;
     stack[0] = 0u;  // (depth, ix, iy) packed as depth | ix << 4 | iy << 16
-    uint depth_max = min(lp.depth, uint(LOBES_MAX_DEPTH));
+    uint depth_max = min(depth_req, uint(LOBES_MAX_DEPTH));
     while (size > 0u) {
         size -= 1u;
         uint cell = stack[size];
@@ -297,7 +297,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         vec3 centre = normalize(axis + tan_half * (cx * t + cy * b));
         float gamma = 0.0;
         for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
-        int state = lobes_cell_state(q, centre, gamma, halfspaces);
+        int state = lobes_cell_state(q, centre, gamma, planes);
         if (state == 0) continue;
         // The whole mask covered: the light is hidden (S = U; the cap lobe's tail past the mask is
         // counted hidden too).
@@ -352,28 +352,53 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
     return shadow;
 }
 
+// The cone mean direction of a rectangle seen from the origin (Arvo: ½ Σ Θ_e n_e), towards c.
+vec3 lobes_cone_mean(vec3 a[4], vec3 c) {
+    vec3 mean = vec3(0.0);
+    for (int k = 0; k < 4; ++k) {
+        vec3 x = cross(a[k], a[(k + 1) & 3]);
+        float lx = length(x);
+        if (lx > 0.0) mean += 0.5 * atan(lx, dot(a[k], a[(k + 1) & 3])) * x / lx;
+    }
+    if (dot(mean, c) < 0.0) mean = -mean;
+    return dot(mean, mean) > 0.0 ? normalize(mean) : normalize(c);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Environment: the same quad-tree mask about n over the widest square (half-angle 1.4 rad: the
-// directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked),
+// directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked;
+// one level deeper than the lights' masks: its cells around n are wide),
 // against the cosine lobe; each shadow leaf's product integral is weighted by the prefiltered
 // environment at its axis. Returns the occluded irradiance S_env (RGB); `hidden`: the whole mask is
-// covered. Half-spaces are left out of the mask: `v_hs` is their exact cosine-weighted visibility
-// (1 + n·m)/2 (products of several), which multiplies the result.
+// covered. Plane blockers are left out of the mask: `v_hs` is the product of their cosine-weighted
+// visibilities, exact for a half-space ((1 + n·m)/2), for a rectangle one minus the occlusion of the
+// energy-scaled cap lobe of its solid angle about its mean direction (× the cosine lobe).
 vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout uint products, inout uint pruned,
                          inout uint leaves, inout uint overflow) {
     hidden = false;
     v_hs = 1.0;
-    bool any_rect = false;
     for (uint i = 0u; i < plane_count; ++i) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, p)) continue;
         if (plane_is_rectangle(pl)) {
-            any_rect = true;
+            // The cap of the plate's solid angle Ω (1 − cos α = Ω/2π) about its cone's mean
+            // direction, as its energy-scaled cap lobe × the cosine lobe.
+            vec3 c = pl.center.xyz - p;
+            vec3 a[4] = vec3[4](c - pl.half_u.xyz - pl.half_v.xyz, c + pl.half_u.xyz - pl.half_v.xyz,
+                                c + pl.half_u.xyz + pl.half_v.xyz, c - pl.half_u.xyz + pl.half_v.xyz);
+            float omega = lobes_triangle_solid_angle(a[0], a[1], a[2]) + lobes_triangle_solid_angle(a[0], a[2], a[3]);
+            float alpha = acos(clamp(1.0 - omega / (2.0 * PI), -1.0, 1.0));
+            Lobe cap = lobes_cap_lobe(lobes_cone_mean(a, c), alpha, vec3(1.0), true, 1.0);
+            Lobe cosine;
+            cosine.axis = n;
+            cosine.e = 1.0;
+            cosine.s = vec3(1.0);
+            v_hs *= clamp(1.0 - lobes_hemisphere_integral(lobes_mul(cap, cosine), n).x / PI, 0.0, 1.0);
         } else {
             v_hs *= 0.5 * (1.0 + clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
         }
     }
-    if (lp.sphere_count == 0u && !any_rect) return vec3(0.0);
+    if (lp.sphere_count == 0u) return vec3(0.0);
     Lobe rl[LOBES_MAX_R];
     rl[0].axis = n;
     rl[0].e = 1.0;
@@ -388,7 +413,7 @@ vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout 
     g_p = p;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    return lobes_shadow(rl, 1, n, n, t, b, tan_half, u, false, true, products, pruned, leaves, hidden);
+    return lobes_shadow(rl, 1, n, n, t, b, tan_half, u, false, true, lp.depth + 1u, products, pruned, leaves, hidden);
 }
 
 vec3 shade_point(ShadePoint sp) {
@@ -468,7 +493,7 @@ vec3 shade_point(ShadePoint sp) {
                 vec3 t, b;
                 orthonormal_basis(axis, t, b);
                 bool hidden;
-                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, true, false, products, pruned, leaves, hidden);
+                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, true, false, lp.depth, products, pruned, leaves, hidden);
                 if (hidden) s = u;
             }
             float vis = u_lum > 0.0 ? clamp(1.0 - lobes_lum(s) / u_lum, 0.0, 1.0) : 1.0;

@@ -177,16 +177,28 @@ impl Twin {
     pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> f64 {
         let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| pl.blocks_receiver(p)).collect();
         let mut v_hs = 1.0;
-        for pl in active.iter().filter(|pl| pl.corners().is_none()) {
-            v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0));
+        for pl in &active {
+            match pl.corners() {
+                None => v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0)),
+                Some(k) => {
+                    let a = k.map(|x| x - p);
+                    let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
+                    let alpha = (1.0 - omega / (2.0 * PI)).clamp(-1.0, 1.0).acos();
+                    let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
+                    let axis = super::super::shexp::cpu::cone_mean_direction(&a, centre).normalize();
+                    let cap = self.cap_lobe(axis, alpha, [1.0; 3], true, 1.0);
+                    let o = self.hemisphere_integral(&self.mul(&cap, &Self::cosine(n)), n)[0];
+                    v_hs *= (1.0 - o / PI).clamp(0.0, 1.0);
+                }
+            }
         }
-        if spheres.is_empty() && !active.iter().any(|pl| pl.corners().is_some()) {
+        if spheres.is_empty() {
             return v_hs;
         }
         let rl = [Self::cosine(n)];
         let u = self.hemisphere_integral(&rl[0], n)[0];
         let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
-        self.mask(&mut out, p, n, n, super::MASK_MAX_HALF_ANGLE.tan(), &rl, spheres, planes, false);
+        self.mask(&mut out, p, n, n, super::MASK_MAX_HALF_ANGLE.tan(), &rl, spheres, &[], false, self.options.depth + 1);
         if out.hidden {
             0.0
         } else {
@@ -236,7 +248,7 @@ impl Twin {
             return out;
         }
         let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
-        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true);
+        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true, o.depth);
         out
     }
 
@@ -253,7 +265,8 @@ impl Twin {
         rl: &[RgbLobe],
         spheres: &[Sphere],
         planes: &[BlockerPlane],
-        halfspaces: bool,
+        with_planes: bool,
+        depth: u32,
     ) {
         let o = &self.options;
         let u_lum = lum(out.u);
@@ -278,7 +291,7 @@ impl Twin {
             blockers.push((dir, subtended_half_angle(p, &b)));
         }
         let (t, b) = orthonormal_basis(axis);
-        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| pl.blocks_receiver(p)).collect();
+        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| with_planes && pl.blocks_receiver(p)).collect();
         let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64| -> u8 {
             let mut partial = false;
             for &(c, beta) in &blockers {
@@ -293,7 +306,6 @@ impl Twin {
             }
             for pl in &active {
                 match pl.edge_normals(p) {
-                    None if !halfspaces => {}
                     None => {
                         let k = q.iter().filter(|x| pl.normal.dot(**x) < 0.0).count();
                         if k == 4 {
@@ -316,7 +328,7 @@ impl Twin {
             }
             u8::from(partial)
         };
-        let depth_max = o.depth.min(super::MAX_DEPTH);
+        let depth_max = depth.min(super::MAX_DEPTH);
         let mut stack: Vec<(u32, u32, u32)> = vec![(0, 0, 0)];
         while let Some((d, ix, iy)) = stack.pop() {
             let h = 1.0 / (1u32 << d) as f64;
