@@ -6,7 +6,7 @@
 use engine::blockers::{BlockerPlane, Sphere};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
-use engine::passes::shade::lobes::cpu::{TwinLight, TwinReceiver, Twin};
+use engine::passes::shade::lobes::cpu::{Twin, TwinLight, TwinReceiver};
 use engine::passes::shade::lobes::{Leaves, LobesOptions};
 use engine::renderer::RenderSettings;
 use engine::scene::{Scene, SphereLight};
@@ -90,7 +90,8 @@ fn gpu_matches_the_f64_twin() {
     let gpu = engine_tests::gpu();
     let key = light([-0.6, 2.2, -0.5], 0.3, [12.0, 9.0, 6.0]);
     let fill = light([0.9, 1.6, 0.4], 0.15, [20.0, 20.0, 24.0]);
-    let rect = BlockerPlane::rectangle(DVec3::new(0.8, 1.0, 0.2), DVec3::new(0.25, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.2));
+    let rect =
+        BlockerPlane::rectangle(DVec3::new(0.8, 1.0, 0.2), DVec3::new(0.25, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.2));
     let cases: Vec<(&str, LobesOptions, Vec<BlockerPlane>)> = vec![
         ("lobes", LobesOptions::default(), vec![]),
         (
@@ -98,11 +99,7 @@ fn gpu_matches_the_f64_twin() {
             LobesOptions { leaves: Leaves::Aggressive, depth: 5, energy: false, ..Default::default() },
             vec![],
         ),
-        (
-            "lobes",
-            LobesOptions::default(),
-            vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect],
-        ),
+        ("lobes", LobesOptions::default(), vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect]),
     ];
     for (spec, o, planes) in cases {
         let (s, world) = scene(vec![key, fill], planes.clone());
@@ -143,9 +140,14 @@ fn one_light_without_blockers_is_the_analytic_lobe_integral() {
     for energy in [true, false] {
         let twin = Twin::new(&LobesOptions { energy, ..Default::default() }).expect("tables");
         let mut worst: f64 = 0.0;
-        for &(dist, radius, tilt) in
-            &[(3.0f64, 0.3f64, 0.0f64), (2.0, 0.5, 0.7), (5.0, 0.05, 1.2), (1.5, 1.0, 0.3), (4.0, 0.2, 1.5), (3.0, 1e-3, 0.4)]
-        {
+        for &(dist, radius, tilt) in &[
+            (3.0f64, 0.3f64, 0.0f64),
+            (2.0, 0.5, 0.7),
+            (5.0, 0.05, 1.2),
+            (1.5, 1.0, 0.3),
+            (4.0, 0.2, 1.5),
+            (3.0, 1e-3, 0.4),
+        ] {
             let n = DVec3::new(tilt.sin(), tilt.cos(), 0.0);
             let l = TwinLight { center: DVec3::new(0.0, dist, 0.0), radius, radiance: [1.0; 3] };
             let t = twin.light_terms(&receiver(n), &l, &[], &[]);
@@ -186,7 +188,8 @@ fn hidden_and_half_covered_lights() {
         eprintln!("light hidden by a 1.25 α blocker ({leaves:?}): {left:.3} of U left, {} leaves", mostly.leaves);
         assert!(!mostly.hidden && left < 0.3, "{left}");
         // A plate over x > 0 at height 2: half the light (and half the mask) is covered.
-        let plate = BlockerPlane::rectangle(DVec3::new(1.0, 2.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 1.0));
+        let plate =
+            BlockerPlane::rectangle(DVec3::new(1.0, 2.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 1.0));
         let half = twin.light_terms(&receiver(n), &l, &[], &[plate]);
         let v = half.visibility();
         eprintln!("half-covered light ({leaves:?}): visibility {v:.4}");
@@ -211,7 +214,12 @@ fn twin_hard_cases_are_sane() {
     let ve = edge.radiance()[0] / free;
     assert!(ve > 0.05 && ve < 0.95, "straddling blocker: {ve}");
     for radius in [1e-4, 1e-3, 3.99] {
-        let t = twin.light_terms(&receiver(DVec3::new(0.6, 0.8, 0.0)), &TwinLight { radius, ..l }, &[Sphere::new(DVec3::new(0.01, 2.0, 0.0), 0.05)], &[]);
+        let t = twin.light_terms(
+            &receiver(DVec3::new(0.6, 0.8, 0.0)),
+            &TwinLight { radius, ..l },
+            &[Sphere::new(DVec3::new(0.01, 2.0, 0.0), 0.05)],
+            &[],
+        );
         assert!(t.u.iter().chain(&t.s).all(|x| x.is_finite() && *x >= 0.0), "radius {radius}: {t:?}");
     }
 }

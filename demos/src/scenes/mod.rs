@@ -83,8 +83,16 @@ pub mod sheet;
 pub mod sphere;
 
 /// Every demo scene, in the order `--help` lists them.
-pub const SCENES: &[SceneEntry] =
-    &[bunny::SCENE, lamp::SCENE, lamp::SCENE_ONE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE, chess::SCENE];
+pub const SCENES: &[SceneEntry] = &[
+    bunny::SCENE,
+    lamp::SCENE,
+    lamp::SCENE_ONE,
+    sheet::SCENE,
+    arm::SCENE,
+    sphere::SCENE,
+    furnace::SCENE,
+    chess::SCENE,
+];
 
 /// A registered scene.
 #[derive(Clone, Copy)]

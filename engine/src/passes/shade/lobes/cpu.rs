@@ -198,7 +198,18 @@ impl Twin {
         let rl = [Self::cosine(n)];
         let u = self.hemisphere_integral(&rl[0], n)[0];
         let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
-        self.mask(&mut out, p, n, n, super::MASK_MAX_HALF_ANGLE.tan(), &rl, spheres, &[], false, self.options.depth + 1);
+        self.mask(
+            &mut out,
+            p,
+            n,
+            n,
+            super::MASK_MAX_HALF_ANGLE.tan(),
+            &rl,
+            spheres,
+            &[],
+            false,
+            self.options.depth + 1,
+        );
         if out.hidden {
             0.0
         } else {
@@ -244,7 +255,7 @@ impl Twin {
             (0..3).for_each(|k| out.u[k] += v[k]);
         }
         let u_lum = lum(out.u);
-        if !(u_lum > 0.0) || (spheres.is_empty() && planes.is_empty()) {
+        if u_lum.is_nan() || u_lum <= 0.0 || (spheres.is_empty() && planes.is_empty()) {
             return out;
         }
         let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
@@ -316,11 +327,12 @@ impl Twin {
                         }
                     }
                     Some(e) => {
-                        let outside: Vec<usize> = e.iter().map(|ek| q.iter().filter(|x| x.dot(*ek) < 0.0).count()).collect();
+                        let outside: Vec<usize> =
+                            e.iter().map(|ek| q.iter().filter(|x| x.dot(*ek) < 0.0).count()).collect();
                         if outside.iter().all(|&k| k == 0) {
                             return 2;
                         }
-                        if !outside.iter().any(|&k| k == 4) {
+                        if !outside.contains(&4) {
                             partial = true;
                         }
                     }
