@@ -199,7 +199,8 @@ pub struct GpuLobesParams {
     pub energy_scale: u32,
     pub split: u32,
     pub sharpen: f32,
-    pub pad: [u32; 2],
+    pub pad0: u32,
+    pub pad1: u32,
 }
 
 /// The parameter block for `o`.
@@ -215,7 +216,8 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         energy_scale: o.energy as u32,
         split: o.split,
         sharpen: o.sharpen as f32,
-        pad: [0; 2],
+        pad0: 0,
+        pad1: 0,
     }
 }
 
