@@ -15,6 +15,7 @@ use engine::passes::blocker_bvh::RadixPush;
 use engine::passes::blocker_spheres::AnimatePush;
 use engine::passes::cloth::ClothPush;
 use engine::passes::shade::isg::{GpuIsgParams, GpuSgLobe};
+use engine::passes::shade::lobes::GpuLobesParams;
 use engine::passes::shade::reference::ReferenceParams;
 use engine::passes::skin::SkinPush;
 use engine::passes::thin_shells::ThinShellsPush;
@@ -131,6 +132,10 @@ fn host_structs() -> Vec<HostLayout> {
             gather_take_whole, diffuse_mode, pad0, pad1
         ]),
         layout_check!(GpuSgLobe, "shade/isg/pixel.comp", struct "EnvLobe", [axis, lambda, mu, pad0]),
+        layout_check!(GpuLobesParams, "shade/lobes/pixel.comp", struct "LobesParams", [
+            sphere_count, depth, conservative, threshold, weight, extent, light_mode, energy_scale, split, sharpen,
+            pad0, pad1
+        ]),
     ]
 }
 

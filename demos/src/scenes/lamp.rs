@@ -12,6 +12,20 @@ pub const SCENE: SceneEntry = SceneEntry {
     motion: Some(super::bunny::TURNTABLE),
 };
 
+/// `lamp-one`: `lamp` with its key light alone (one soft shadow; the cosine-lobe technique's one-light case).
+pub const SCENE_ONE: SceneEntry = SceneEntry {
+    name: "lamp-one",
+    summary: "lamp with its key light alone (one soft shadow)",
+    build: build_one,
+    motion: Some(super::bunny::TURNTABLE),
+};
+
+fn build_one(inputs: &SceneInputs) -> anyhow::Result<Scene> {
+    let mut scene = build(inputs)?;
+    scene.lights.truncate(1);
+    Ok(scene)
+}
+
 fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
     let mut scene = super::bunny::scene(inputs)?;
     scene.environment_intensity = ENVIRONMENT_INTENSITY;

@@ -85,8 +85,17 @@ pub mod sphere;
 pub mod user;
 
 /// Every demo scene, in the order `--help` lists them.
-pub const SCENES: &[SceneEntry] =
-    &[bunny::SCENE, lamp::SCENE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE, chess::SCENE, cloth::SCENE];
+pub const SCENES: &[SceneEntry] = &[
+    bunny::SCENE,
+    lamp::SCENE,
+    lamp::SCENE_ONE,
+    sheet::SCENE,
+    arm::SCENE,
+    sphere::SCENE,
+    furnace::SCENE,
+    chess::SCENE,
+    cloth::SCENE,
+];
 
 /// A registered scene.
 #[derive(Clone, Copy)]

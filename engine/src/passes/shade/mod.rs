@@ -9,6 +9,7 @@
 //! option tables and the parameterized tests (tests/tests/techniques.rs) all read the registry.
 
 pub mod isg;
+pub mod lobes;
 pub mod none;
 pub mod reference;
 pub mod shexp;
@@ -19,7 +20,7 @@ use crate::passes::gbuffer::GBuffer;
 use crate::resources::{BlockerResources, EnvironmentResources, Geometry, GpuScene, LightResources, ThinResources};
 
 /// The registry: every technique the engine knows, in the order `--help` and the viewer list them.
-pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, none::ENTRY, reference::ENTRY, shexp::ENTRY];
+pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, lobes::ENTRY, none::ENTRY, reference::ENTRY, shexp::ENTRY];
 
 /// One registered technique.
 pub struct TechniqueEntry {

@@ -1,0 +1,401 @@
+//! The f64 twin of `shaders-glsl/shade/lobes/shade.glsl` per receiver: the same tables (read from the
+//! asset files the GPU uploads), the same reflectance and light lobes, the same quad-tree (frame,
+//! cell order, classification, leaf lobes and weights), the same environment occlusion, in f64.
+//! The GPU's BVH traversal visits exactly the leaves whose sphere meets the mask cone, which is
+//! what [`Twin`] does over the sphere list.
+//! Covers `light=lobes` (both light scales, both leaf modes); `light=ratio` reuses the same S/U.
+
+use super::{Leaves, LobesOptions};
+use crate::tables::default_dir;
+use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
+use engine_blockers::plane::BlockerPlane;
+use engine_math::lobes::{
+    angle_between, product_axis, product_log_peak, CapTable, HemisphereTable, ProductTable, MAX_EXPONENT,
+};
+use engine_math::table_gen::MathTable;
+use engine_math::tables::Table;
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// A lobe with an RGB scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RgbLobe {
+    pub axis: DVec3,
+    pub e: f64,
+    pub s: [f64; 3],
+}
+
+/// A spherical light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwinLight {
+    pub center: DVec3,
+    pub radius: f64,
+    pub radiance: [f64; 3],
+}
+
+/// One receiver: position, unit shading normal, unit direction to the viewer, diffuse albedo and an
+/// optional Blinn-Phong specular (k_s, s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwinReceiver {
+    pub p: DVec3,
+    pub n: DVec3,
+    pub view: DVec3,
+    pub rho: [f64; 3],
+    pub phong: Option<([f64; 3], f64)>,
+}
+
+/// One light's terms at a receiver: U (unshadowed lobe integral), S (shadow), whether its blocker
+/// list overflowed, and the counts of leaves and of products (computed, pruned).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LightTerms {
+    pub u: [f64; 3],
+    pub s: [f64; 3],
+    pub overflow: bool,
+    pub leaves: usize,
+    pub products: usize,
+    pub pruned: usize,
+    /// False: the receiver is inside the light (the shader then adds the closed form).
+    pub outside: bool,
+    /// The whole mask was covered (S = U).
+    pub hidden: bool,
+}
+
+impl LightTerms {
+    /// What `light=lobes` adds: max(U − S, 0) per channel.
+    pub fn radiance(&self) -> [f64; 3] {
+        [0, 1, 2].map(|c| (self.u[c] - self.s[c]).max(0.0))
+    }
+    /// The luminance visibility clamp(1 − S/U, 0, 1) (`light=ratio`).
+    pub fn visibility(&self) -> f64 {
+        let u = lum(self.u);
+        if u > 0.0 {
+            (1.0 - lum(self.s) / u).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+}
+
+fn lum(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+fn read(t: MathTable) -> Result<Table, String> {
+    let path = default_dir().join(format!("{}.bin", t.name()));
+    Table::read(&path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn pairs(t: &Table) -> Vec<[f32; 2]> {
+    t.f32_values().chunks_exact(2).map(|c| [c[0], c[1]]).collect()
+}
+
+/// The frame of frame.glsl's `orthonormal_basis` (Duff et al.), in f64.
+pub fn orthonormal_basis(z: DVec3) -> (DVec3, DVec3) {
+    let s = if z.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (s + z.z);
+    let c = z.x * z.y * a;
+    (DVec3::new(1.0 + s * z.x * z.x * a, s * c, -s * z.x), DVec3::new(c, s + z.y * z.y * a, -z.y))
+}
+
+/// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom–Strackee).
+pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let num = a.dot(b.cross(c)).abs();
+    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    2.0 * num.atan2(den)
+}
+
+fn cap_solid_angle(alpha: f64) -> f64 {
+    let h = (0.5 * alpha.min(PI)).sin();
+    4.0 * PI * h * h
+}
+
+/// Everything the twin reads.
+pub struct Twin {
+    pub options: LobesOptions,
+    pub product: ProductTable,
+    pub hemisphere: HemisphereTable,
+    pub cap: CapTable,
+}
+
+impl Twin {
+    pub fn new(options: &LobesOptions) -> Result<Self, String> {
+        let product = ProductTable {
+            per_decade: engine_math::lobes::PRODUCT_SAMPLES_PER_DECADE,
+            alpha_samples: engine_math::lobes::PRODUCT_ALPHA_SAMPLES,
+            data: pairs(&read(MathTable::LobeProduct)?),
+        };
+        let hemisphere = HemisphereTable {
+            per_decade: engine_math::lobes::HEMISPHERE_SAMPLES_PER_DECADE,
+            y_samples: engine_math::lobes::HEMISPHERE_Y_SAMPLES,
+            data: pairs(&read(MathTable::LobeHemisphere)?),
+        };
+        let cap = CapTable { k: read(MathTable::LobeCap)?.f32_values() };
+        Ok(Self { options: options.clone(), product, hemisphere, cap })
+    }
+
+    /// c1 · c2 as one lobe (the shader's `lobes_mul`): the product table, or past it (an exponent
+    /// above 1e5) the SG rule e_r = |e1 a1 + e2 a2| with p_r the peak.
+    pub fn mul(&self, c1: &RgbLobe, c2: &RgbLobe) -> RgbLobe {
+        let alpha = angle_between(c1.axis.to_array(), c2.axis.to_array());
+        let [ln_rel, e_r] = if c1.e > MAX_EXPONENT || c2.e > MAX_EXPONENT {
+            [0.0, (c1.e * c1.e + c2.e * c2.e + 2.0 * c1.e * c2.e * alpha.cos()).max(0.0).sqrt()]
+        } else {
+            self.product.lookup_raw(c1.e, c2.e, alpha)
+        };
+        let peak = product_log_peak(c1.e, c2.e, alpha);
+        let p = if peak == f64::NEG_INFINITY { 0.0 } else { (peak + ln_rel).exp() };
+        RgbLobe {
+            axis: DVec3::from_array(product_axis(c1.axis.to_array(), c1.e, c2.axis.to_array(), c2.e)),
+            e: e_r.max(0.0),
+            s: [0, 1, 2].map(|k| c1.s[k] * c2.s[k] * p),
+        }
+    }
+
+    /// ∫ over the hemisphere of n (the hemisphere table).
+    pub fn hemisphere_integral(&self, c: &RgbLobe, n: DVec3) -> [f64; 3] {
+        let v = self.hemisphere.hemisphere_integral(c.e, c.axis.dot(n).clamp(-1.0, 1.0));
+        c.s.map(|s| s * v)
+    }
+
+    /// The cap lobe of half-angle α (energy: its integral is the cap's solid angle × scale).
+    pub fn cap_lobe(&self, axis: DVec3, alpha: f64, scale: [f64; 3], energy: bool, sharpen: f64) -> RgbLobe {
+        let e = self.cap.exponent(alpha) * sharpen as f32 as f64;
+        let f = if energy { cap_solid_angle(alpha) * (e + 1.0) / (2.0 * PI) } else { 1.0 };
+        RgbLobe { axis, e, s: scale.map(|s| s * f) }
+    }
+
+    fn cosine(n: DVec3) -> RgbLobe {
+        RgbLobe { axis: n, e: 1.0, s: [1.0; 3] }
+    }
+
+    /// The environment's visibility under a constant environment (where the shader's prefiltered
+    /// weights are that constant): 1 − S/U of the cosine lobe through the mask about n (half-angle
+    /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
+    /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
+    /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
+    pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> f64 {
+        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| pl.blocks_receiver(p)).collect();
+        let mut v_hs = 1.0;
+        for pl in &active {
+            match pl.corners() {
+                None => v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0)),
+                Some(k) => {
+                    let a = k.map(|x| x - p);
+                    let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
+                    let alpha = (1.0 - omega / (2.0 * PI)).clamp(-1.0, 1.0).acos();
+                    let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
+                    let axis = super::super::shexp::cpu::cone_mean_direction(&a, centre).normalize();
+                    let cap = self.cap_lobe(axis, alpha, [1.0; 3], true, 1.0);
+                    let o = self.hemisphere_integral(&self.mul(&cap, &Self::cosine(n)), n)[0];
+                    v_hs *= (1.0 - o / PI).clamp(0.0, 1.0);
+                }
+            }
+        }
+        if spheres.is_empty() {
+            return v_hs;
+        }
+        let rl = [Self::cosine(n)];
+        let u = self.hemisphere_integral(&rl[0], n)[0];
+        let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
+        self.mask(
+            &mut out,
+            p,
+            n,
+            n,
+            super::MASK_MAX_HALF_ANGLE.tan(),
+            &rl,
+            spheres,
+            &[],
+            false,
+            self.options.depth + 1,
+        );
+        if out.hidden {
+            0.0
+        } else {
+            (1.0 - out.s[0] / u).max(0.0) * v_hs
+        }
+    }
+
+    /// The reflectance lobes f_r · cos at the receiver (Lambert; Blinn-Phong as Phong × cosine).
+    pub fn reflectance(&self, r: &TwinReceiver) -> Vec<RgbLobe> {
+        let mut out = vec![RgbLobe { axis: r.n, e: 1.0, s: r.rho.map(|x| x / PI) }];
+        if let Some((ks, s)) = r.phong {
+            let mirror = 2.0 * r.n.dot(r.view) * r.n - r.view;
+            let spec = RgbLobe { axis: mirror, e: 0.25 * s, s: ks.map(|k| k * (s + 8.0) / (8.0 * PI)) };
+            out.push(self.mul(&spec, &Self::cosine(r.n)));
+        }
+        out
+    }
+
+    /// U and S of one light at a receiver (the shader's light loop body).
+    pub fn light_terms(
+        &self,
+        r: &TwinReceiver,
+        light: &TwinLight,
+        spheres: &[Sphere],
+        planes: &[BlockerPlane],
+    ) -> LightTerms {
+        let o = &self.options;
+        let (p, n) = (r.p, r.n);
+        let d = light.center - p;
+        let dist = d.length();
+        let mut out = LightTerms::default();
+        if dist <= light.radius.max(0.0) {
+            return out;
+        }
+        out.outside = true;
+        let axis = d / dist;
+        let alpha = light.radius.max(0.0).atan2(((dist - light.radius) * (dist + light.radius)).max(0.0).sqrt());
+        let light_lobe = self.cap_lobe(axis, alpha, light.radiance, o.energy, o.sharpen);
+        let rl: Vec<RgbLobe> = self.reflectance(r).iter().map(|c| self.mul(c, &light_lobe)).collect();
+        out.products = rl.len() + usize::from(r.phong.is_some());
+        for c in &rl {
+            let v = self.hemisphere_integral(c, n);
+            (0..3).for_each(|k| out.u[k] += v[k]);
+        }
+        let u_lum = lum(out.u);
+        if u_lum.is_nan() || u_lum <= 0.0 || (spheres.is_empty() && planes.is_empty()) {
+            return out;
+        }
+        let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
+        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true, o.depth);
+        out
+    }
+
+    /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
+    /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale).
+    #[allow(clippy::too_many_arguments)]
+    pub fn mask(
+        &self,
+        out: &mut LightTerms,
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        tan_half: f64,
+        rl: &[RgbLobe],
+        spheres: &[Sphere],
+        planes: &[BlockerPlane],
+        with_planes: bool,
+        depth: u32,
+    ) {
+        let o = &self.options;
+        let u_lum = lum(out.u);
+        let corner = (tan_half * 2f64.sqrt()).atan();
+        // Blockers in the mask cone, as (direction, half-angle).
+        let cone = Cone::new(p, axis, corner);
+        let mut blockers = Vec::new();
+        for s in spheres {
+            if !cone_intersects_sphere(&cone, s) {
+                continue;
+            }
+            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
+            if b.radius <= 0.0 {
+                continue;
+            }
+            if blockers.len() >= super::MAX_BLOCKERS {
+                out.overflow = true;
+                continue;
+            }
+            let v = b.center - p;
+            let dir = if v.length() > 0.0 { v.normalize() } else { n };
+            blockers.push((dir, subtended_half_angle(p, &b)));
+        }
+        let (t, b) = orthonormal_basis(axis);
+        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| with_planes && pl.blocks_receiver(p)).collect();
+        let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64| -> u8 {
+            let mut partial = false;
+            for &(c, beta) in &blockers {
+                if angle_between(c.to_array(), centre.to_array()) >= beta + gamma {
+                    continue;
+                }
+                let cb = beta.cos();
+                if q.iter().all(|x| x.dot(c) >= cb) {
+                    return 2;
+                }
+                partial = true;
+            }
+            for pl in &active {
+                match pl.edge_normals(p) {
+                    None => {
+                        let k = q.iter().filter(|x| pl.normal.dot(**x) < 0.0).count();
+                        if k == 4 {
+                            return 2;
+                        }
+                        if k > 0 {
+                            partial = true;
+                        }
+                    }
+                    Some(e) => {
+                        let outside: Vec<usize> =
+                            e.iter().map(|ek| q.iter().filter(|x| x.dot(*ek) < 0.0).count()).collect();
+                        if outside.iter().all(|&k| k == 0) {
+                            return 2;
+                        }
+                        if !outside.contains(&4) {
+                            partial = true;
+                        }
+                    }
+                }
+            }
+            u8::from(partial)
+        };
+        let depth_max = depth.min(super::MAX_DEPTH);
+        let mut stack: Vec<(u32, u32, u32)> = vec![(0, 0, 0)];
+        while let Some((d, ix, iy)) = stack.pop() {
+            let h = 1.0 / (1u32 << d) as f64;
+            let cx = -1.0 + (2.0 * ix as f64 + 1.0) * h;
+            let cy = -1.0 + (2.0 * iy as f64 + 1.0) * h;
+            let raw: [DVec3; 4] = [0, 1, 2, 3].map(|c| {
+                let x = cx + if c == 1 || c == 2 { h } else { -h };
+                let y = cy + if c >= 2 { h } else { -h };
+                axis + tan_half * (x * t + y * b)
+            });
+            let q = raw.map(|x| x.normalize());
+            if !q.iter().any(|x| x.dot(n) > 0.0) {
+                continue;
+            }
+            let centre = (axis + tan_half * (cx * t + cy * b)).normalize();
+            let gamma = q.iter().map(|x| angle_between(centre.to_array(), x.to_array())).fold(0.0, f64::max);
+            let st = state(&q, centre, gamma);
+            if st == 2 && d == 0 {
+                // The whole mask covered: hidden (S = U).
+                out.s = out.u;
+                out.hidden = true;
+                return;
+            }
+            if st == 2 && d < o.split.min(depth_max) {
+                for k in 0..4u32 {
+                    stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));
+                }
+                continue;
+            }
+            match st {
+                0 => continue,
+                1 if d < depth_max => {
+                    // Pushed in the shader's order (k = 0..3), popped last first.
+                    for k in 0..4u32 {
+                        stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));
+                    }
+                    continue;
+                }
+                1 if o.leaves == Leaves::Aggressive => continue,
+                _ => {}
+            }
+            let leaf_weight = if st == 1 && o.leaves == Leaves::Half { 0.5 } else { 1.0 };
+            out.leaves += 1;
+            let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
+            let e = self.cap.exponent(gamma);
+            let leaf = RgbLobe { axis: centre, e, s: [leaf_weight * o.weight * omega * (e + 1.0) / (2.0 * PI); 3] };
+            for c in rl {
+                let v = self.hemisphere_integral(&self.mul(c, &leaf), n);
+                out.products += 1;
+                if lum(v) < o.threshold * u_lum {
+                    out.pruned += 1;
+                    continue;
+                }
+                (0..3).for_each(|k| out.s[k] += v[k]);
+            }
+        }
+    }
+}

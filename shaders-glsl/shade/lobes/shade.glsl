@@ -1,0 +1,522 @@
+// Technique `lobes` (engine passes::shade::lobes): cosine lobes for direct lighting (Meunier et al.
+// 2009), per pixel and per vertex. f64 twin: engine::passes::shade::lobes::cpu (same tables, same
+// quad-tree, same order of operations).
+//
+// Per receiver p (normal n, view v):
+// - reflectance f̃_r = f_r · cos as lobes (§5.1): Lambert (n, ρ/π, e = 1); a Blinn-Phong specular
+//   k_s (s+8)/(8π) (n·h)^s as the Phong lobe (r, e = s/4) times the cosine lobe (n, 1) through the
+//   product table. Other specular kinds: the exact SG light term times the light's lobe visibility.
+// - each spherical light j as one cap lobe (§5.2: axis to the centre, e_cap from the cap table),
+//   scaled by L (light_scale=paper) or so that its integral is the cap's solid angle (=energy);
+//   `sharpen` multiplies its exponent (1: the paper's L2 fit, which keeps ~38 % of its integral
+//   outside the cap and so widens penumbrae).
+// - R × L first (§5.4), each product from the product table; U = Σ ∫_{Ω+} (R_k L) from the
+//   hemisphere table (§4.2).
+// - visibility of light j (§5.3): blockers in the light's mask cone (BVH traversal of the blocker
+//   spheres, leaves only, at most LOBES_MAX_BLOCKERS; plane blockers) classified against the cells
+//   of a quad-tree over a square perpendicular to the light axis (gnomonic coordinates, half-angle
+//   min(extent · α, 1.4)); a wholly covered mask hides the light (S = U); covered cells split down
+//   to `split` (so that leaf lobes are narrower than the light's), then are shadow leaves; partial
+//   cells split down to `depth`,
+//   then are dropped (aggressive) or kept (conservative). Each shadow leaf is the cap lobe of its
+//   bounding cone, weighted by w_i = weight · Ω_cell / ∫c_i (its integral equals the cell's solid
+//   angle; the paper's hand-set w_i(dist, depth) replaced by this rule). S = Σ_i Σ_k w_i ∫_{Ω+} (R_k L) c_i.
+//   Leaves are streamed (no leaf list); products whose integral is below threshold · U are pruned.
+// - light j adds max(U − S, 0) (light=lobes) or the exact unshadowed term times
+//   clamp(1 − S/U, 0, 1) (light=ratio, luminance-weighted).
+// - environment: diffuse ρ/π max(E(n) − S_env, 0), E the shared irradiance, S_env from the same
+//   mask machinery about n against the cosine lobe, each shadow leaf's product weighted by the
+//   prefiltered environment at its axis (as isg's diffuse=map weighs its patches); plane blockers
+//   multiply by their cosine-weighted visibility (exact for half-spaces, an equal-solid-angle cap
+//   lobe for rectangles). Glossy: the shared prefiltered
+//   term times the diffuse visibility (luminance ratio).
+// Overflow (more blockers in a light's cone than LOBES_MAX_BLOCKERS) is counted in LobesStats.
+#include "../common.glsl"
+#include "../prefiltered.glsl"
+#include "../lights.glsl"
+#include "../../common/lobes.glsl"
+#include "../../common/frame.glsl"
+#define BVH_STACK_SIZE 32
+#include "../../common/bvh.glsl"
+#include "../../common/planes.glsl"
+
+layout(binding = 8) uniform sampler2D irradiance_map;
+layout(binding = 9) uniform sampler2D prefiltered_env;
+layout(std430, binding = 10) readonly buffer LobeProduct { vec2 lobe_product_table[]; };
+layout(std430, binding = 11) readonly buffer LobeHemisphere { vec2 lobe_hemisphere_table[]; };
+layout(std430, binding = 12) readonly buffer LobeCap { float lobe_cap_table[]; };
+layout(std430, binding = 13) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+// Twin: engine::passes::shade::lobes::GpuLobesParams.
+struct LobesParams {
+    uint sphere_count;
+    uint depth;           // maximal quad-tree depth
+    uint conservative;    // 1: partial leaves at the maximal depth shadow
+    float threshold;      // t_i, relative to the light's unshadowed lobe integral U
+    float weight;         // global factor of the leaf weights
+    float extent;         // mask half-angle / light half-angle
+    uint light_mode;      // 0 lobes, 1 ratio
+    uint energy_scale;    // 1: light lobes scaled to the cap's solid angle
+    uint split;           // covered cells split down to this depth
+    float sharpen;        // the light lobes' exponent is e_cap times this
+    uint pad0;
+    uint pad1;
+};
+layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
+// [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
+// [3] products pruned by the threshold, [4] shadow leaves. Cumulative (the host resets it).
+layout(std430, binding = 15) buffer LobesStats { uint lobes_stats[8]; };
+layout(std430, binding = 21) readonly buffer BlockerPlanes {
+    uint plane_count;
+    BlockerPlane blocker_planes[];  // at least one record (zero when plane_count = 0)
+};
+
+#define LOBES_PRODUCT_NE 97
+#define LOBES_PRODUCT_NA 49
+#define LOBES_HEMI_NE 769
+#define LOBES_HEMI_NY 129
+#define LOBES_CAP_N 1000
+#define LOBES_MAX_BLOCKERS 64
+#define LOBES_MAX_DEPTH 6
+#define LOBES_STACK (3 * LOBES_MAX_DEPTH + 1)
+#define LOBES_MAX_R 2
+const float LOBES_MASK_MAX_HALF_ANGLE = 1.4;
+
+struct Lobe {
+    vec3 axis;
+    float e;
+    vec3 s;  // RGB scale
+};
+
+float lobes_lum(vec3 c) {
+    return dot(c, vec3(0.2126, 0.7152, 0.0722));
+}
+
+// Linear interpolation weights on a table axis of n samples (twin of lobes::axis_lerp).
+void lobes_axis(float coord, int n, out int i0, out int i1, out float f) {
+    float c = clamp(coord, 0.0, float(n - 1));
+    i0 = min(int(floor(c)), n - 1);
+    i1 = min(i0 + 1, n - 1);
+    f = c - float(i0);
+}
+
+// (ln p_r/peak, e_r) by trilinear lookup (twin of ProductTable::lookup_raw). Past the table
+// (an exponent above 1e5) the SG product rule: e_r = |e1 a1 + e2 a2|, p_r = the peak.
+vec2 lobes_product_raw(float e1, float e2, float alpha) {
+    if (e1 > LOBES_MAX_EXPONENT || e2 > LOBES_MAX_EXPONENT) {
+        return vec2(0.0, sqrt(max(e1 * e1 + e2 * e2 + 2.0 * e1 * e2 * cos(alpha), 0.0)));
+    }
+    int a0, a1, b0, b1, j0, j1;
+    float fa, fb, fj;
+    lobes_axis(lobe_exponent_coord(e1, 16.0), LOBES_PRODUCT_NE, a0, a1, fa);
+    lobes_axis(lobe_exponent_coord(e2, 16.0), LOBES_PRODUCT_NE, b0, b1, fb);
+    lobes_axis(lobe_alpha_coord(alpha, float(LOBES_PRODUCT_NA)), LOBES_PRODUCT_NA, j0, j1, fj);
+    vec2 r = vec2(0.0);
+    for (int ia = 0; ia < 2; ++ia) {
+        for (int ib = 0; ib < 2; ++ib) {
+            for (int ij = 0; ij < 2; ++ij) {
+                float w = (ia == 0 ? 1.0 - fa : fa) * (ib == 0 ? 1.0 - fb : fb) * (ij == 0 ? 1.0 - fj : fj);
+                if (w == 0.0) continue;
+                int i = ((ia == 0 ? a0 : a1) * LOBES_PRODUCT_NE + (ib == 0 ? b0 : b1)) * LOBES_PRODUCT_NA + (ij == 0 ? j0 : j1);
+                r += w * lobe_product_table[i];
+            }
+        }
+    }
+    return r;
+}
+
+// c1 · c2 as one lobe (paper Eq. 15-16; twin of ProductTable::product).
+Lobe lobes_mul(Lobe c1, Lobe c2) {
+    float alpha = lobe_angle_between(c1.axis, c2.axis);
+    vec2 r = lobes_product_raw(c1.e, c2.e, alpha);
+    Lobe o;
+    o.axis = lobe_product_axis(c1.axis, c1.e, c2.axis, c2.e);
+    o.e = max(r.y, 0.0);
+    o.s = c1.s * c2.s * lobe_product_scale(c1.e, c2.e, alpha, r.x);
+    return o;
+}
+
+// ∫_{n·v > 0} c dω from the hemisphere table (twin of HemisphereTable::hemisphere_integral).
+vec3 lobes_hemisphere_integral(Lobe c, vec3 n) {
+    float cb = clamp(dot(c.axis, n), -1.0, 1.0);
+    int e0, e1, y0, y1;
+    float fe, fy;
+    lobes_axis(lobe_exponent_coord(c.e, 128.0), LOBES_HEMI_NE, e0, e1, fe);
+    lobes_axis((lobe_hemisphere_coord_y(c.e, cb) + 1.0) * 0.5 * float(LOBES_HEMI_NY - 1), LOBES_HEMI_NY, y0, y1, fy);
+    float a = lobe_hemisphere_table[e0 * LOBES_HEMI_NY + y0].x * (1.0 - fy) + lobe_hemisphere_table[e0 * LOBES_HEMI_NY + y1].x * fy;
+    float b = lobe_hemisphere_table[e1 * LOBES_HEMI_NY + y0].x * (1.0 - fy) + lobe_hemisphere_table[e1 * LOBES_HEMI_NY + y1].x * fy;
+    return c.s * ((a * (1.0 - fe) + b * fe) * 2.0 * LOBES_PI / (c.e + 1.0));
+}
+
+// e_cap of a cap of half-angle alpha (twin of CapTable::exponent).
+float lobes_cap_exponent(float alpha) {
+    int i0, i1;
+    float f;
+    lobes_axis(lobe_cap_coord(max(alpha, LOBES_CAP_MIN_ALPHA), float(LOBES_CAP_N)), LOBES_CAP_N, i0, i1, f);
+    return lobe_cap_exponent(lobe_cap_table[i0] * (1.0 - f) + lobe_cap_table[i1] * f, alpha);
+}
+
+// Solid angle of a cap of half-angle alpha, 2π(1 − cos α) = 4π sin²(α/2).
+float lobes_cap_solid_angle(float alpha) {
+    float h = sin(0.5 * min(alpha, LOBES_PI));
+    return 4.0 * LOBES_PI * h * h;
+}
+
+// The cap lobe of half-angle alpha about axis, scaled so that its integral is the cap's solid
+// angle times `scale` (energy) or by `scale` alone.
+Lobe lobes_cap_lobe(vec3 axis, float alpha, vec3 scale, bool energy, float sharpen) {
+    Lobe c;
+    c.axis = axis;
+    c.e = lobes_cap_exponent(alpha) * sharpen;
+    c.s = energy ? scale * (lobes_cap_solid_angle(alpha) * (c.e + 1.0) / (2.0 * LOBES_PI)) : scale;
+    return c;
+}
+
+// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom-Strackee).
+float lobes_triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
+    float la = length(a), lb = length(b), lc = length(c);
+    float num = abs(dot(a, cross(b, c)));
+    float den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+    return 2.0 * atan(num, den);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Light visibility: the quad-tree mask.
+
+vec3 g_p;
+vec3 g_n;
+vec4 g_blockers[LOBES_MAX_BLOCKERS];  // (unit direction, half-angle) seen from g_p
+uint g_blocker_count;
+bool g_overflow;
+vec3 g_axis;
+float g_cos_mask;
+
+void lobes_light_visit(vec4 s) {
+    vec4 b;
+    if (!blocker_for_receiver(g_p, g_n, s, b)) return;
+    if (!(b.w > 0.0)) return;
+    if (g_blocker_count >= uint(LOBES_MAX_BLOCKERS)) {
+        g_overflow = true;
+        return;
+    }
+    vec3 d = b.xyz - g_p;
+    float l = length(d);
+    vec3 dir = l > 0.0 ? d / l : g_n;
+    g_blockers[g_blocker_count] = vec4(dir, sphere_subtended_half_angle(g_p, b));
+    g_blocker_count += 1u;
+}
+
+// The spheres whose cone meets the mask cone (apex p, axis, half-angle), leaves only.
+void lobes_collect(vec3 p, vec3 n, vec3 axis, float half_angle) {
+    g_p = p;
+    g_n = n;
+    g_blocker_count = 0u;
+    g_overflow = false;
+    BvhCursor c = bvh_cursor_begin(lp.sphere_count);
+    uint v;
+    while (bvh_cursor_next(c, v)) {
+        BvhNode node = bvh_nodes[v];
+        vec4 s = bvh_sphere(node);
+        if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
+        if (bvh_is_leaf(node)) {
+            lobes_light_visit(s);
+        } else if (!bvh_cursor_push_children(c, node.left, node.right)) {
+            // Never on the LBVH (bvh.glsl) with this stack: taken whole (conservative) and counted.
+            g_overflow = true;
+            lobes_light_visit(s);
+        }
+    }
+}
+
+// 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit;
+// gamma: the cell's bounding-cone half-angle.
+int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes) {
+    bool partial = false;
+    for (uint i = 0u; i < g_blocker_count; ++i) {
+        vec4 b = g_blockers[i];
+        if (lobe_angle_between(b.xyz, centre) >= b.w + gamma) continue;
+        float cb = cos(b.w);
+        if (dot(q[0], b.xyz) >= cb && dot(q[1], b.xyz) >= cb && dot(q[2], b.xyz) >= cb && dot(q[3], b.xyz) >= cb) return 2;
+        partial = true;
+    }
+    for (uint i = 0u; i < (planes ? plane_count : 0u); ++i) {
+        BlockerPlane pl = blocker_planes[i];
+        if (!plane_blocks_receiver(pl, g_p)) continue;
+        if (!plane_is_rectangle(pl)) {
+            // Blocked: m·ω < 0 (a great circle: a line in the mask's gnomonic plane, so the corners decide).
+            int k = 0;
+            for (int c = 0; c < 4; ++c) k += dot(pl.plane.xyz, q[c]) < 0.0 ? 1 : 0;
+            if (k == 4) return 2;
+            if (k > 0) partial = true;
+        } else {
+            vec3 e[4];
+            plane_edge_normals(pl, g_p, e);
+            bool all_in = true;
+            bool separated = false;
+            for (int k = 0; k < 4; ++k) {
+                int outside = 0;
+                for (int c = 0; c < 4; ++c) outside += dot(q[c], e[k]) < 0.0 ? 1 : 0;
+                all_in = all_in && outside == 0;
+                separated = separated || outside == 4;
+            }
+            if (all_in) return 2;
+            if (!separated) partial = true;
+        }
+    }
+    return partial ? 1 : 0;
+}
+
+// S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half).
+vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t, vec3 b, float tan_half, float u_lum,
+                  bool planes, bool env, uint depth_req, inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
+    vec3 shadow = vec3(0.0);
+    hidden = false;
+    uint stack[LOBES_STACK];
+    uint size = 1u;
+    stack[0] = 0u;  // (depth, ix, iy) packed as depth | ix << 4 | iy << 16
+    uint depth_max = min(depth_req, uint(LOBES_MAX_DEPTH));
+    while (size > 0u) {
+        size -= 1u;
+        uint cell = stack[size];
+        uint d = cell & 15u;
+        uint ix = (cell >> 4) & 0xfffu;
+        uint iy = cell >> 16;
+        float h = 1.0 / float(1u << d);  // half side in [-1, 1]^2
+        float cx = -1.0 + (2.0 * float(ix) + 1.0) * h;
+        float cy = -1.0 + (2.0 * float(iy) + 1.0) * h;
+        vec3 q[4];
+        vec3 raw[4];
+        bool any_above = false;
+        for (int c = 0; c < 4; ++c) {
+            float x = cx + ((c == 1 || c == 2) ? h : -h);
+            float y = cy + ((c >= 2) ? h : -h);
+            raw[c] = axis + tan_half * (x * t + y * b);
+            q[c] = normalize(raw[c]);
+            any_above = any_above || dot(q[c], n) > 0.0;
+        }
+        if (!any_above) continue;  // wholly below the tangent plane: contributes nothing
+        vec3 centre = normalize(axis + tan_half * (cx * t + cy * b));
+        float gamma = 0.0;
+        for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
+        int state = lobes_cell_state(q, centre, gamma, planes);
+        if (state == 0) continue;
+        // The whole mask covered: the light is hidden (S = U; the cap lobe's tail past the mask is
+        // counted hidden too).
+        if (state == 2 && d == 0u) {
+            hidden = true;
+            return shadow;
+        }
+        // Covered cells split down to `split` so that their lobes are narrower than the light's:
+        // one broad leaf lobe peaks at ~0.6 and leaves its centre lit.
+        if (state == 2 && d < min(lp.split, depth_max)) {
+            for (uint k = 0u; k < 4u; ++k) {
+                stack[size] = (d + 1u) | ((2u * ix + (k & 1u)) << 4) | ((2u * iy + (k >> 1)) << 16);
+                size += 1u;
+            }
+            continue;
+        }
+        if (state == 1) {
+            if (d < depth_max) {
+                for (uint k = 0u; k < 4u; ++k) {
+                    uint cix = 2u * ix + (k & 1u);
+                    uint ciy = 2u * iy + (k >> 1);
+                    stack[size] = (d + 1u) | (cix << 4) | (ciy << 16);
+                    size += 1u;
+                }
+                continue;
+            }
+            if (lp.conservative == 0u) continue;
+        }
+        // leaves=half: a partial leaf at the maximal depth counts half covered.
+        float leaf_weight = (state == 1 && lp.conservative == 2u) ? 0.5 : 1.0;
+        // A shadow leaf: the cap lobe of its bounding cone, w_i = weight Ω_cell / ∫c_i.
+        leaves += 1u;
+        float omega = lobes_triangle_solid_angle(raw[0], raw[1], raw[2]) + lobes_triangle_solid_angle(raw[0], raw[2], raw[3]);
+        Lobe c;
+        c.axis = centre;
+        c.e = lobes_cap_exponent(gamma);
+        c.s = vec3(leaf_weight * lp.weight * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
+        for (int k = 0; k < rl_count; ++k) {
+            Lobe pr = lobes_mul(rl[k], c);
+            products += 1u;
+            vec3 v = lobes_hemisphere_integral(pr, n);
+            if (lobes_lum(v) < lp.threshold * u_lum) {
+                pruned += 1u;
+                continue;
+            }
+            // The environment: each leaf's occluded light read from the prefiltered environment
+            // at the leaf's axis, filtered like the leaf lobe (cos^e ≈ an SG of sharpness e).
+            if (env) v *= prefiltered_lookup(prefiltered_env, c.axis, max(c.e, 1.0));
+            shadow += v;
+        }
+    }
+    return shadow;
+}
+
+// The cone mean direction of a rectangle seen from the origin (Arvo: ½ Σ Θ_e n_e), towards c.
+vec3 lobes_cone_mean(vec3 a[4], vec3 c) {
+    vec3 mean = vec3(0.0);
+    for (int k = 0; k < 4; ++k) {
+        vec3 x = cross(a[k], a[(k + 1) & 3]);
+        float lx = length(x);
+        if (lx > 0.0) mean += 0.5 * atan(lx, dot(a[k], a[(k + 1) & 3])) * x / lx;
+    }
+    if (dot(mean, c) < 0.0) mean = -mean;
+    return dot(mean, mean) > 0.0 ? normalize(mean) : normalize(c);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Environment: the same quad-tree mask about n over the widest square (half-angle 1.4 rad: the
+// directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked;
+// one level deeper than the lights' masks: its cells around n are wide),
+// against the cosine lobe; each shadow leaf's product integral is weighted by the prefiltered
+// environment at its axis. Returns the occluded irradiance S_env (RGB); `hidden`: the whole mask is
+// covered. Plane blockers are left out of the mask: `v_hs` is the product of their cosine-weighted
+// visibilities, exact for a half-space ((1 + n·m)/2), for a rectangle one minus the occlusion of the
+// energy-scaled cap lobe of its solid angle about its mean direction (× the cosine lobe).
+vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout uint products, inout uint pruned,
+                         inout uint leaves, inout uint overflow) {
+    hidden = false;
+    v_hs = 1.0;
+    for (uint i = 0u; i < plane_count; ++i) {
+        BlockerPlane pl = blocker_planes[i];
+        if (!plane_blocks_receiver(pl, p)) continue;
+        if (plane_is_rectangle(pl)) {
+            // The cap of the plate's solid angle Ω (1 − cos α = Ω/2π) about its cone's mean
+            // direction, as its energy-scaled cap lobe × the cosine lobe.
+            vec3 c = pl.center.xyz - p;
+            vec3 a[4] = vec3[4](c - pl.half_u.xyz - pl.half_v.xyz, c + pl.half_u.xyz - pl.half_v.xyz,
+                                c + pl.half_u.xyz + pl.half_v.xyz, c - pl.half_u.xyz + pl.half_v.xyz);
+            float omega = lobes_triangle_solid_angle(a[0], a[1], a[2]) + lobes_triangle_solid_angle(a[0], a[2], a[3]);
+            float alpha = acos(clamp(1.0 - omega / (2.0 * PI), -1.0, 1.0));
+            Lobe cap = lobes_cap_lobe(lobes_cone_mean(a, c), alpha, vec3(1.0), true, 1.0);
+            Lobe cosine;
+            cosine.axis = n;
+            cosine.e = 1.0;
+            cosine.s = vec3(1.0);
+            v_hs *= clamp(1.0 - lobes_hemisphere_integral(lobes_mul(cap, cosine), n).x / PI, 0.0, 1.0);
+        } else {
+            v_hs *= 0.5 * (1.0 + clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
+        }
+    }
+    if (lp.sphere_count == 0u) return vec3(0.0);
+    Lobe rl[LOBES_MAX_R];
+    rl[0].axis = n;
+    rl[0].e = 1.0;
+    rl[0].s = vec3(1.0);
+    rl[1] = rl[0];
+    float u = lobes_hemisphere_integral(rl[0], n).x;
+    float tan_half = tan(LOBES_MASK_MAX_HALF_ANGLE);
+    g_blocker_count = 0u;
+    g_overflow = false;
+    if (lp.sphere_count > 0u) lobes_collect(p, n, n, atan(tan_half * sqrt(2.0)));
+    if (g_overflow) overflow = 1u;
+    g_p = p;
+    vec3 t, b;
+    orthonormal_basis(n, t, b);
+    return lobes_shadow(rl, 1, n, n, t, b, tan_half, u, false, true, lp.depth + 1u, products, pruned, leaves, hidden);
+}
+
+vec3 shade_point(ShadePoint sp) {
+    vec3 n = sp.normal;
+    vec3 p = sp.position;
+    uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
+
+    // Environment: shared unshadowed terms times the lobe visibility estimate.
+    bool env_hidden;
+    float v_hs;
+    vec3 s_env = lobes_env_occlusion(p, n, env_hidden, v_hs, products, pruned, leaves, overflow);
+    vec3 e_free = irradiance_lookup(irradiance_map, n);
+    vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_hs;
+    vec3 rho = sp.material.diffuse.rgb;
+    vec3 result = rho / PI * e_env;
+    if (brdf_has_specular(sp.material)) {
+        // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).
+        float den = lobes_lum(e_free);
+        float v_env = den > 0.0 ? clamp(lobes_lum(e_env) / den, 0.0, 1.0) : 1.0;
+        result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+    }
+
+    if (light_count > 0u) {
+        SpecLobe sg[BRDF_MAX_LOBES];
+        int sg_count = brdf_specular_lobes(sp.material, sp.normal, sp.view, sg);
+        // Reflectance lobes f_r · cos (§5.1).
+        Lobe r[LOBES_MAX_R];
+        int r_count = 1;
+        r[0].axis = n;
+        r[0].e = 1.0;
+        r[0].s = rho / PI;
+        bool phong = brdf_kind(sp.material) == BRDF_BLINN_PHONG && brdf_has_specular(sp.material);
+        if (phong) {
+            float s = sp.material.shininess;
+            Lobe spec;
+            spec.axis = reflect(-sp.view, n);
+            spec.e = 0.25 * s;
+            spec.s = sp.material.specular.rgb * (s + 8.0) / (8.0 * PI);
+            Lobe cosine;
+            cosine.axis = n;
+            cosine.e = 1.0;
+            cosine.s = vec3(1.0);
+            r[1] = lobes_mul(spec, cosine);
+            products += 1u;
+            r_count = 2;
+        }
+        for (uint j = 0u; j < light_count; ++j) {
+            vec3 axis;
+            float sa, ca;
+            bool outside = light_cap(j, p, axis, sa, ca);
+            if (!outside) {
+                // Inside the light: it fills every direction, unshadowed (closed form).
+                result += light_unshadowed(sp, j, sg, sg_count, false, axis, sa, ca);
+                continue;
+            }
+            float alpha = atan(sa, ca);
+            Lobe light = lobes_cap_lobe(axis, alpha, lights[j].radiance, lp.energy_scale == 1u, lp.sharpen);
+            Lobe rl[LOBES_MAX_R];
+            vec3 u = vec3(0.0);
+            for (int k = 0; k < r_count; ++k) {
+                rl[k] = lobes_mul(r[k], light);
+                products += 1u;
+                u += lobes_hemisphere_integral(rl[k], n);
+            }
+            float u_lum = lobes_lum(u);
+            vec3 s = vec3(0.0);
+            if (u_lum > 0.0 && (lp.sphere_count > 0u || plane_count > 0u)) {
+                float half_angle = min(lp.extent * alpha, LOBES_MASK_MAX_HALF_ANGLE);
+                float tan_half = tan(half_angle);
+                // The cone through the square's corners.
+                float corner = atan(tan_half * sqrt(2.0));
+                g_blocker_count = 0u;
+                g_overflow = false;
+                if (lp.sphere_count > 0u) lobes_collect(p, n, axis, corner);
+                if (g_overflow) overflow = 1u;
+                g_p = p;
+                vec3 t, b;
+                orthonormal_basis(axis, t, b);
+                bool hidden;
+                s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, true, false, lp.depth, products, pruned, leaves, hidden);
+                if (hidden) s = u;
+            }
+            float vis = u_lum > 0.0 ? clamp(1.0 - lobes_lum(s) / u_lum, 0.0, 1.0) : 1.0;
+            if (lp.light_mode == 1u) {
+                result += vis * light_unshadowed(sp, j, sg, sg_count, true, axis, sa, ca);
+            } else {
+                result += max(u - s, vec3(0.0));
+                if (!phong && sg_count > 0) {
+                    // Non-Phong specular: the exact SG light term times the lobe visibility.
+                    vec3 spec = vec3(0.0);
+                    for (int k = 0; k < sg_count; ++k) {
+                        if (all(equal(sg[k].weight, vec3(0.0)))) continue;
+                        spec += sg[k].weight * cap_sg_integral(sg[k].axis, sg[k].lambda, axis, sa, ca);
+                    }
+                    result += vis * lights[j].radiance * max(spec, vec3(0.0));
+                }
+            }
+        }
+    }
+    atomicAdd(lobes_stats[0], 1u);
+    if (overflow != 0u) atomicAdd(lobes_stats[1], 1u);
+    atomicAdd(lobes_stats[2], products);
+    atomicAdd(lobes_stats[3], pruned);
+    atomicAdd(lobes_stats[4], leaves);
+    return result;
+}
