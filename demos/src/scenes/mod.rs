@@ -5,7 +5,7 @@
 //! names of the report sweep (tools/report/sweep.json, checked before it runs), and the tests, which build
 //! every registered scene, pose its motion and render it (demos/tests/scenes.rs, tests/tests/scenes.rs).
 //! Analytic scenes that only tests use (`sphere_over_plane`, `sheet_over_plane`) are fixtures in
-//! tests/src/fixtures.rs, not demo scenes. (cloth and battle arrive with their issues.)
+//! tests/src/fixtures.rs, not demo scenes. (cloth arrives with its issue.)
 //!
 //! # Adding a scene
 //!
@@ -74,6 +74,7 @@ use glam::Mat4;
 use std::path::Path;
 
 pub mod arm;
+pub mod battle;
 pub mod bunny;
 pub mod chess;
 pub mod furnace;
@@ -85,7 +86,7 @@ pub mod user;
 
 /// Every demo scene, in the order `--help` lists them.
 pub const SCENES: &[SceneEntry] =
-    &[bunny::SCENE, lamp::SCENE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE, chess::SCENE];
+    &[bunny::SCENE, lamp::SCENE, sheet::SCENE, arm::SCENE, sphere::SCENE, furnace::SCENE, chess::SCENE, battle::SCENE];
 
 /// A registered scene.
 #[derive(Clone, Copy)]
