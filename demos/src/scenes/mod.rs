@@ -5,7 +5,7 @@
 //! names of the report sweep (tools/report/sweep.json, checked before it runs), and the tests, which build
 //! every registered scene, pose its motion and render it (demos/tests/scenes.rs, tests/tests/scenes.rs).
 //! Analytic scenes that only tests use (`sphere_over_plane`, `sheet_over_plane`) are fixtures in
-//! tests/src/fixtures.rs, not demo scenes. (battle arrives with its issue.)
+//! tests/src/fixtures.rs, not demo scenes.
 //!
 //! # Adding a scene
 //!
@@ -74,6 +74,7 @@ use glam::Mat4;
 use std::path::Path;
 
 pub mod arm;
+pub mod battle;
 pub mod bunny;
 pub mod chess;
 pub mod cloth;
@@ -95,6 +96,7 @@ pub const SCENES: &[SceneEntry] = &[
     furnace::SCENE,
     chess::SCENE,
     cloth::SCENE,
+    battle::SCENE,
 ];
 
 /// A registered scene.

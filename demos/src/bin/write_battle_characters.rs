@@ -1,0 +1,26 @@
+//! `write_battle_characters [DIR]`: write the `battle` scene's troll and wizard (`demos::characters`) as
+//! `troll.glb` and `wizard.glb` into DIR (default assets/battle). The test
+//! `battle_characters_are_the_generators_output` (demos/tests/battle.rs) checks the shipped files against it.
+
+use anyhow::Context;
+use demos::characters::{troll, wizard, RINGS};
+use demos::gltf_writer::Container;
+use std::path::PathBuf;
+
+fn main() {
+    demos::exit_on_error(run());
+}
+
+fn run() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    anyhow::ensure!(args.len() <= 1, "usage: write_battle_characters [DIR]");
+    let dir = args.first().map(PathBuf::from).unwrap_or_else(|| demos::assets_dir().join("battle"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    for c in [troll(RINGS), wizard(RINGS)] {
+        let path = dir.join(format!("{}.glb", c.name));
+        let (b, doc) = c.gltf();
+        b.write(doc, &path, Container::Glb).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
