@@ -2,6 +2,8 @@
 // Requires, before inclusion: bvh.glsl, a buffer with `BvhNode bvh_nodes[]`, and the macro
 // BVH_CUT_VISIT(index, sphere) that consumes one visited node (uint index, vec4 sphere), e.g.
 //     #define BVH_CUT_VISIT(index, s) accumulate_blocker(s)
+// Optionally BVH_CUT_DROP(sphere): a node for which it is true is dropped with its subtree (after the
+// cone test); it must then be true for every node of the subtree too (e.g. "subtends less than θ_min").
 // f64 twin: engine_blockers::traverse::cut.
 #ifndef BVH_CUT_GLSL
 #define BVH_CUT_GLSL
@@ -20,6 +22,11 @@ bool bvh_cut(uint sphere_count, vec4 receiver, float sin_theta_max, vec3 apex, v
         if (!bvh_cone_hits(apex, axis, half_angle, s)) {
             continue;
         }
+#ifdef BVH_CUT_DROP
+        if (BVH_CUT_DROP(s)) {
+            continue;
+        }
+#endif
         if (bvh_is_leaf(n) || bvh_subtends_less_than(receiver, s, sin_theta_max)
             || !bvh_cursor_push_children(c, n.left, n.right)) {
             BVH_CUT_VISIT(v, s);

@@ -160,6 +160,38 @@ fn hard_blocker_sets_match_the_twin() {
     gpu.shutdown().expect("clean teardown");
 }
 
+// theta_min (tiny blockers dropped, SHEXP §7): the shader's cut drops whole nodes subtending less than
+// θ_min, the twin drops leaf spheres; with θ_min between the two sizes of the tiny set, the twin's log
+// equals the log of the larger spheres alone, and the GPU equals the twin.
+#[test]
+fn theta_min_drops_tiny_blockers_on_both_sides() {
+    let tiny: Vec<Sphere> = (0..30)
+        .map(|i| {
+            let t = i as f64 * 0.9;
+            Sphere::new(DVec3::new(1.2 * t.cos(), -0.8, 1.2 * t.sin()), if i % 2 == 0 { 1e-4 } else { 1e-3 })
+        })
+        .collect();
+    let (scene, world) = scene_with(tiny);
+    let o = ShexpOptions { theta_max_deg: 0.0, theta_min_deg: 0.015, large_product: false, ..ShexpOptions::default() };
+    let twin = Twin::new(&o, &scene.environment).expect("twin tables");
+    let all = Twin::new(&ShexpOptions { theta_min_deg: 0.0, ..o.clone() }, &scene.environment).expect("twin tables");
+    let larger: Vec<Sphere> = world.iter().filter(|s| s.radius > 1e-4).cloned().collect();
+    for x in [-0.6, -0.2, 0.0, 0.3, 0.7] {
+        let (p, n) = (DVec3::new(x, 0.0, 0.1), DVec3::Y);
+        let (f, count) = twin.log_visibility(p, n, &world);
+        let (want, want_count) = all.log_visibility(p, n, &larger);
+        let (f_all, count_all) = all.log_visibility(p, n, &world);
+        assert_eq!((count, count_all), (want_count, 30), "x = {x}: blockers kept");
+        assert!(f.iter().zip(&want).all(|(a, b)| (a - b).abs() <= 1e-12 * b.abs().max(1.0)), "x = {x}");
+        assert!(f_all[0] < f[0], "x = {x}: the dropped spheres carried log visibility");
+    }
+    let gpu = engine_tests::gpu();
+    let spec = "shexp:theta_max=0,large=log,theta_min=0.015";
+    let (errs, _) = compare(&gpu, &scene, &world, spec, &o);
+    check(&errs, spec, "theta_min=0.015 over 30 tiny spheres", 5e-5, 2e-4);
+    gpu.shutdown().expect("clean teardown");
+}
+
 // A sphere crossing the receiver's tangent plane as it moves (the §6.2 shrink rule, f64 twin, no
 // GPU): the shading changes by at most a small bound between neighbouring steps. A sphere that
 // grows to contain the receiver switches rules (shrink → min(h, r)): that jump is measured and

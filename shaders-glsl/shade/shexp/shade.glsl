@@ -46,8 +46,8 @@ struct ShexpParams {
     uint diffuse_mode;     // 0 sh, 1 ratio
     float large_u;         // u = 1 − cos θ above which a sphere multiplies its visibility (large=product; 2: never)
     uint accumulate;       // 0 log (the paper), 1 product (Zhou et al. 2005: every sphere multiplies g)
-    uint pad1;
-    uint pad2;
+    float sin_theta_min;   // theta_min: nodes and spheres subtending less are dropped (0: none)
+    uint pad;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
     vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
 };
@@ -105,6 +105,10 @@ void shexp_visit(vec4 s) {
     g_blockers += 1u;
 }
 #define BVH_CUT_VISIT(index, s) shexp_visit(s)
+// theta_min (SHEXP §7, tiny blockers): a node whose bounding sphere subtends less than θ_min from p is
+// dropped with its subtree (its spheres lie inside it, so each subtends less too). Twin: the f64 cpu's
+// `too_small`, on the leaf spheres.
+#define BVH_CUT_DROP(s) (s.w < shx.sin_theta_min * distance(g_p, s.xyz))
 #include "../../common/bvh_cut.glsl"
 
 float shexp_atan_triangle(vec3 a, vec3 b, vec3 c) {

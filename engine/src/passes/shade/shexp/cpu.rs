@@ -92,7 +92,7 @@ impl Twin {
         let mut f = vec![0.0; c];
         let mut count = 0;
         let mut large = Vec::new();
-        for (u, axis) in spheres.iter().filter_map(|s| sphere_circle(p, n, s)) {
+        for (u, axis) in self.sphere_circles(p, n, spheres) {
             if u > self.large_u && large.len() < MAX_LARGE {
                 large.push((u, axis));
                 continue;
@@ -101,6 +101,17 @@ impl Twin {
             count += 1;
         }
         (f, count, large)
+    }
+
+    /// The circles of the spheres that block `p` (in list order), those subtending a half-angle below
+    /// `theta_min` dropped first (the shader drops them, and whole BVH nodes that small, in its cut).
+    fn sphere_circles(&self, p: DVec3, n: DVec3, spheres: &[Sphere]) -> Vec<(f64, DVec3)> {
+        let sin_min = self.options.theta_min_deg.to_radians().sin() as f32 as f64;
+        spheres
+            .iter()
+            .filter(|s| !(s.radius < sin_min * s.center.distance(p)))
+            .filter_map(|s| sphere_circle(p, n, s))
+            .collect()
     }
 
     /// [`Self::log_visibility_split`] without the large spheres.
@@ -171,7 +182,7 @@ impl Twin {
     /// then by each plane's, projected visibility.
     fn product_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> (Vec<f64>, usize) {
         let order = self.options.order;
-        let mut circles: Vec<(f64, DVec3)> = spheres.iter().filter_map(|s| sphere_circle(p, n, s)).collect();
+        let mut circles = self.sphere_circles(p, n, spheres);
         circles.extend(self.plane_circles(p, planes));
         let mut g = vec![0.0; order * order];
         g[0] = SQRT_4PI;

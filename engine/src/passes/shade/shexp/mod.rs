@@ -50,6 +50,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "BVH cut angle θ_max in degrees (SHEXP Eq. 36): nodes subtending less are taken whole as their bounding sphere (0: leaves only)",
     },
     OptionSpec {
+        key: "theta_min",
+        aliases: &[],
+        kind: Kind::closed(0.0, 90.0),
+        default: Some("0"),
+        help: "drop tiny blockers (SHEXP §7): a node or sphere subtending a half-angle below θ_min degrees is skipped with its subtree (0: keep all)",
+    },
+    OptionSpec {
         key: "exp",
         aliases: &[],
         kind: Kind::Choice(&["hyb", "ol", "ps"]),
@@ -133,6 +140,8 @@ pub enum ExpChoice {
 pub struct ShexpOptions {
     pub order: usize,
     pub theta_max_deg: f64,
+    /// `theta_min`: blockers subtending a half-angle below this (degrees) are dropped.
+    pub theta_min_deg: f64,
     pub exp: ExpChoice,
     pub ps_degree: usize,
     pub hyb_target: f64,
@@ -152,6 +161,7 @@ impl Default for ShexpOptions {
         Self {
             order: 4,
             theta_max_deg: 25.0,
+            theta_min_deg: 0.0,
             exp: ExpChoice::Hyb,
             ps_degree: 2,
             hyb_target: HYB_DEFAULT_TARGET,
@@ -168,6 +178,7 @@ impl ShexpOptions {
         Self {
             order: o.int("order") as usize,
             theta_max_deg: o.float("theta_max"),
+            theta_min_deg: o.float("theta_min"),
             exp: match o.choice("exp") {
                 "ol" => ExpChoice::Ol,
                 "ps" => ExpChoice::PsStar,
@@ -206,7 +217,9 @@ pub struct GpuShexpParams {
     pub large_u: f32,
     /// 0 log, 1 product (`accumulate`).
     pub accumulate: u32,
-    pub pad: [u32; 2],
+    /// sin θ_min (`theta_min`; 0: keep every blocker).
+    pub sin_theta_min: f32,
+    pub pad: u32,
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -269,7 +282,8 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         diffuse_mode: o.ratio as u32,
         large_u: large_u(o) as f32,
         accumulate: o.accumulate_product as u32,
-        pad: [0; 2],
+        sin_theta_min: o.theta_min_deg.to_radians().sin() as f32,
+        pad: 0,
         h_star,
         window,
     }
