@@ -22,12 +22,7 @@ fn luminance(hdr: &[f32], i: usize) -> f64 {
 
 /// The technique / none luminance ratio on ground pixels within 0.45 m (horizontally) of either character's
 /// feet, and on ground pixels more than 1.4 m from every other instance's origin; with the pixel counts.
-fn ground_ratios(
-    scene: &engine::scene::Scene,
-    lit: &[f32],
-    none: &[f32],
-    receivers: &[Receiver],
-) -> [(f64, usize); 2] {
+fn ground_ratios(scene: &engine::scene::Scene, lit: &[f32], none: &[f32], receivers: &[Receiver]) -> [(f64, usize); 2] {
     let ground = scene.materials.len() - 1;
     let feet = [battle::TROLL_AT, battle::WIZARD_AT].map(|p| p.as_dvec3());
     let others: Vec<glam::DVec3> =

@@ -109,7 +109,7 @@ impl Twin {
         let sin_min = self.options.theta_min_deg.to_radians().sin() as f32 as f64;
         spheres
             .iter()
-            .filter(|s| !(s.radius < sin_min * s.center.distance(p)))
+            .filter(|s| s.radius >= sin_min * s.center.distance(p))
             .filter_map(|s| sphere_circle(p, n, s))
             .collect()
     }
