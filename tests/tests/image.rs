@@ -129,23 +129,40 @@ fn every_technique_on_the_lamp_scene_matches_its_reference() {
     }
 }
 
-/// The `cloth` scene with ISG at 64 × 48, 0.25 s into the fall (60 substeps on the GPU): the cloth, still flat and
-/// falling, above the bunnies, its thin-shell shadow on them and the ground. Before the first contact, so that the
-/// state is smooth in its inputs (f32 rounding of another driver moves it by about 1e-6 m; after contacts the drape
-/// is sensitive to rounding and would not be a fair image test across drivers).
+/// The demo scenes × every registered technique at 48 × 36, posed at a moment of their animation (chess: a
+/// piece in mid-slide; battle: the troll's club raised, the wizard casting; cloth: 0.25 s into the fall, before
+/// contact: the drape after contact is sensitive to f32 rounding and would not be a fair image test across
+/// drivers). References `scene-<scene>-<technique>.png`; same threshold and reason as above (the
+/// reference technique renders one deterministic frame of 4 samples per pixel).
 #[test]
-fn cloth_scene_matches_reference() {
+fn demo_scenes_with_every_technique_match_their_references() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("cloth", None).expect("cloth scene");
-    let (w, h) = (64, 48);
-    let settings = RenderSettings { width: w, height: h, technique: "isg".into(), ..Default::default() };
-    let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
-    r.set_time(0.25).expect("time");
-    r.render(&gpu).expect("frame");
-    let hdr = r.read_radiance(&gpu).expect("radiance");
-    let ldr = r.read_ldr(&gpu).expect("ldr");
-    r.destroy(&gpu);
+    let (w, h) = (48, 36);
+    let mut images = Vec::new();
+    for (name, t) in [("chess", 1.5f32), ("battle", 0.8), ("cloth", 0.25)] {
+        let loaded = demos::scenes::load(name, None, &Default::default()).expect("scene");
+        for entry in engine::passes::shade::TECHNIQUES {
+            let settings = RenderSettings { width: w, height: h, technique: entry.name.into(), ..Default::default() };
+            let mut r = engine::renderer::Renderer::new(&gpu, &loaded.scene, settings).expect("renderer");
+            let animation = loaded.animation.as_ref().expect("the demo scenes are animated");
+            animation.apply(&mut r, t).expect("pose");
+            let t0 = std::time::Instant::now();
+            r.render(&gpu).unwrap_or_else(|e| panic!("{name} × {}: frame: {e}", entry.name));
+            eprintln!("{name} × {}: frame {:.2} s", entry.name, t0.elapsed().as_secs_f64());
+            let hdr = r.read_radiance(&gpu).expect("radiance");
+            let ldr = r.read_ldr(&gpu).expect("ldr");
+            r.destroy(&gpu);
+            assert!(hdr.iter().all(|v| v.is_finite()), "{name} × {}: non-finite pixel", entry.name);
+            images.push((format!("scene-{name}-{}", entry.name), ldr));
+        }
+    }
     gpu.shutdown().expect("clean teardown");
-    assert!(hdr.iter().all(|v| v.is_finite()), "non-finite pixel in the cloth scene");
-    check_against_reference("cloth-isg", w, h, &ldr, FLIP_MEAN_THRESHOLD);
+    if engine_tests::reference_mode() == engine_tests::ReferenceMode::Bless {
+        for (name, ldr) in &images {
+            engine::output::write_png(&references().join(format!("{name}.png")), w, h, ldr).expect("write reference");
+        }
+    }
+    for (name, ldr) in &images {
+        check_against_reference(name, w, h, ldr, FLIP_MEAN_THRESHOLD);
+    }
 }
