@@ -76,7 +76,8 @@ struct Args {
     #[arg(long, conflicts_with_all = ["window", "capture"])]
     memory: bool,
     /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
-    /// T: technique, V: per-vertex/per-pixel, +/-: exposure, R: reset, with --animate P/space: pause, ./,: step a
+    /// T: technique, B: BRDF of the glossy materials (diffuse, Blinn-Phong, Ashikhmin-Shirley, GGX),
+    /// V: per-vertex/per-pixel, +/-: exposure, R: reset, with --animate P/space: pause, ./,: step a
     /// frame, Esc: quit).
     #[arg(long, conflicts_with_all = ["frames", "spp", "capture", "export"])]
     window: bool,
