@@ -47,6 +47,9 @@ pub fn measure_technique(gpu: &Gpu, scene: &Scene, settings: RenderSettings, fra
             shade.push(t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum::<f64>());
             total.push(t.iter().map(|p| p.ms).sum::<f64>());
         }
+        for w in r.technique_warnings(gpu)? {
+            eprintln!("warning: {spec}: {w}");
+        }
         Ok((r.read_radiance(gpu)?, r.read_ldr(gpu)?))
     })();
     r.destroy(gpu);

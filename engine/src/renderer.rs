@@ -324,6 +324,11 @@ impl Renderer {
         self.cloth.as_ref()
     }
 
+    /// The technique's warnings since the last call ([`Technique::warnings`]: e.g. `lobes`' dropped blockers).
+    pub fn technique_warnings(&mut self, gpu: &Gpu) -> Result<Vec<String>> {
+        self.technique.warnings(gpu)
+    }
+
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
         self.render_to(gpu, None)

@@ -197,6 +197,11 @@ pub trait Technique {
     /// derived from them (the reference discards its accumulated samples). Techniques that read the materials
     /// only per shading point need nothing.
     fn materials_changed(&mut self) {}
+    /// What the technique dropped or clamped beyond its stated model since the last call (e.g. `lobes`' blockers
+    /// past its per-receiver bound), as lines for the user; reading may wait for the GPU. Default: nothing.
+    fn warnings(&mut self, _gpu: &Gpu) -> Result<Vec<String>> {
+        Ok(Vec::new())
+    }
     /// Technique-specific controls (e.g. the reference's sample counts), reached by downcasting.
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None

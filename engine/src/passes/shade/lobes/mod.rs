@@ -236,6 +236,19 @@ pub struct LobesStats {
     pub leaves: u64,
 }
 
+/// The user's line for overflowed receivers (none when nothing overflowed).
+pub fn overflow_warning(s: &LobesStats) -> Option<String> {
+    (s.overflowed > 0).then(|| {
+        format!(
+            "lobes: {} of {} shaded receivers ({:.1} %) had more than {MAX_BLOCKERS} blockers in a light's or the \
+             environment's mask cone; the rest were dropped (too little shadow there)",
+            s.overflowed,
+            s.receivers,
+            100.0 * s.overflowed as f64 / s.receivers.max(1) as f64
+        )
+    })
+}
+
 /// The tables the technique reads.
 pub const TABLES: [MathTable; 3] = [MathTable::LobeProduct, MathTable::LobeHemisphere, MathTable::LobeCap];
 
@@ -284,6 +297,13 @@ impl Lobes {
 impl Technique for Lobes {
     fn name(&self) -> &'static str {
         "lobes"
+    }
+
+    /// Receivers whose blocker list overflowed since the last call (then the counters restart).
+    fn warnings(&mut self, gpu: &Gpu) -> Result<Vec<String>> {
+        let s = self.stats(gpu)?;
+        self.reset_stats(gpu)?;
+        Ok(overflow_warning(&s).into_iter().collect())
     }
 
     fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()> {
