@@ -47,6 +47,19 @@ fn check_against_reference(name: &str, w: u32, h: u32, ldr: &[u8], threshold: f3
     }
 }
 
+/// [`check_against_reference`] for several images; when blessing, every reference is written before the
+/// first check ends the blessing run.
+fn check_all_against_references(images: &[(String, Vec<u8>)], w: u32, h: u32) {
+    if engine_tests::reference_mode() == engine_tests::ReferenceMode::Bless {
+        for (name, ldr) in images {
+            engine::output::write_png(&references().join(format!("{name}.png")), w, h, ldr).expect("write reference");
+        }
+    }
+    for (name, ldr) in images {
+        check_against_reference(name, w, h, ldr, FLIP_MEAN_THRESHOLD);
+    }
+}
+
 #[test]
 fn default_scene_matches_reference() {
     let gpu = engine_tests::gpu();
@@ -118,15 +131,7 @@ fn every_technique_on_the_lamp_scene_matches_its_reference() {
         images.push((format!("technique-{}-lamp", entry.name), ldr));
     }
     gpu.shutdown().expect("clean teardown");
-    if engine_tests::reference_mode() == engine_tests::ReferenceMode::Bless {
-        // Write every technique's reference before the first check ends the blessing run.
-        for (name, ldr) in &images {
-            engine::output::write_png(&references().join(format!("{name}.png")), w, h, ldr).expect("write reference");
-        }
-    }
-    for (name, ldr) in &images {
-        check_against_reference(name, w, h, ldr, FLIP_MEAN_THRESHOLD);
-    }
+    check_all_against_references(&images, w, h);
 }
 
 /// The demo scenes × every registered technique at 48 × 36, posed at a moment of their animation (chess: a
@@ -157,12 +162,5 @@ fn demo_scenes_with_every_technique_match_their_references() {
         }
     }
     gpu.shutdown().expect("clean teardown");
-    if engine_tests::reference_mode() == engine_tests::ReferenceMode::Bless {
-        for (name, ldr) in &images {
-            engine::output::write_png(&references().join(format!("{name}.png")), w, h, ldr).expect("write reference");
-        }
-    }
-    for (name, ldr) in &images {
-        check_against_reference(name, w, h, ldr, FLIP_MEAN_THRESHOLD);
-    }
+    check_all_against_references(&images, w, h);
 }
