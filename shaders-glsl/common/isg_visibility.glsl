@@ -29,6 +29,19 @@
 // Patches per side at most (one 32-bit mask word per row).
 #define ISG_MAX_SIDE 32
 
+// Work counters of the cost model (the `counters` option of technique isg compiles ISG_COUNTERS and
+// shows them instead of radiance): 0 BVH nodes of the hemisphere traversal, 1 BVH nodes of the lobe
+// traversals, 2 caps marked, 3 cap rows marked (one acos each), 4 patch radiance lookups of
+// diffuse=map, 5 Ŝ corner evaluations. No-ops otherwise.
+#ifdef ISG_COUNTERS
+// Kept in workgroup memory, 6 slots per invocation (private globals made llvmpipe's JIT compile
+// of this shader run for minutes).
+shared uint s_isg_count[6 * 64];
+#define ISG_COUNT(i, n) s_isg_count[6u * gl_LocalInvocationIndex + (i)] += uint(n)
+#else
+#define ISG_COUNT(i, n)
+#endif
+
 const int ISG_EVAL_TABLE = 0;
 const int ISG_EVAL_PAPER = 1;
 
@@ -118,7 +131,14 @@ void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
     float last = float(g.side - 1);
     int i_lo = int(clamp(ceil((theta_c - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
     int i_hi = int(clamp(floor((theta_c + psi - g.lo) / g.delta - 0.5), -1.0, last));
-    for (int i = i_lo; i <= i_hi; ++i) mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
+    ISG_COUNT(2, 1);
+    // A row already full is skipped (its acos would change nothing): blockers seen behind the
+    // ground's plane or inside an earlier cap cost no row work there.
+    for (int i = i_lo; i <= i_hi; ++i) {
+        if (mask[i] == full) continue;
+        ISG_COUNT(3, 1);
+        mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
+    }
 }
 
 // Ŝ at a corner given its warped coordinates (table) or its angles (the paper's fit).
@@ -157,6 +177,7 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
             float p1 = g.lo + float(j1) * g.delta;
             float q0 = isg_warp_of(p0, wc, evaluator);
             float q1 = isg_warp_of(p1, wc, evaluator);
+            ISG_COUNT(5, 4);
             sum += isg_corner(t1, p1, s1, q1, lambda, evaluator, fl) - isg_corner(t0, p1, s0, q1, lambda, evaluator, fl)
                  - isg_corner(t1, p0, s1, q0, lambda, evaluator, fl) + isg_corner(t0, p0, s0, q0, lambda, evaluator, fl);
         }
@@ -204,6 +225,7 @@ void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, u
     while (bvh_cursor_next(cur, node)) {
         BvhNode nd = ISG_BVH_NODE(node);
         vec4 s = bvh_sphere(nd);
+        ISG_COUNT(1, 1);
         if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
         if (!bvh_is_leaf(nd)) {
             // Always descend while p is inside the node (its angular radius is then π).
@@ -227,7 +249,8 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
         isg_mark_cap(mask, g, -n, ISG_HALF_PI);
         horizon = isg_occluded_sum(mask, g, lambda, st.evaluator);
     }
-    bool marked = false;
+    // Planes first: the rows they fill are then skipped by the spheres' caps (isg_mark_cap).
+    bool marked = isg_planes_mark(mask, g);  // plane blockers (isg_planes.glsl)
     for (int c = 0; c < b.count; ++c) {
         vec4 cap = b.caps[c];
         // Cone test of the cap against the cone holding the grid.
@@ -238,7 +261,6 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
 #ifdef ISG_THIN
     if (isg_thin_mark(mask, g)) marked = true;  // thin-shell triangles (isg_thin.glsl)
 #endif
-    if (isg_planes_mark(mask, g)) marked = true;  // plane blockers (isg_planes.glsl)
     return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
 }
 
@@ -252,6 +274,7 @@ void isg_mark_traversed(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 p, vec3 n
     while (bvh_cursor_next(cur, node)) {
         BvhNode nd = ISG_BVH_NODE(node);
         vec4 s = bvh_sphere(nd);
+        ISG_COUNT(0, 1);
         if (!bvh_cone_hits(p, g.z, g.cone, s)) continue;
         if (!bvh_is_leaf(nd)) {
             float psi = sphere_subtended_half_angle(p, s);

@@ -40,6 +40,9 @@ pub struct IsgOptions {
     pub diffuse: Diffuse,
     /// Coordinate-descent rounds refining the greedy environment fit (0: greedy only).
     pub refine: usize,
+    /// The counter variant of the shader (the cost model): 0 radiance, 1 and 2 the work counts
+    /// (shaders-glsl/common/isg_visibility.glsl) instead of radiance.
+    pub counters: u32,
 }
 
 impl Default for IsgOptions {
@@ -52,6 +55,7 @@ impl Default for IsgOptions {
             evaluator: Evaluator::Table,
             diffuse: Diffuse::Map,
             refine: REFINE_ROUNDS,
+            counters: 0,
         }
     }
 }
@@ -110,6 +114,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("6"),
         help: "coordinate-descent rounds refining the greedy SG fit (diffuse=ratio|sg; 0: greedy only)",
     },
+    OptionSpec {
+        key: "counters",
+        aliases: &[],
+        kind: Kind::Choice(&["off", "traversal", "marking"]),
+        default: Some("off"),
+        help: "cost model: show per-point work counts instead of radiance: traversal (BVH nodes of the hemisphere traversal, of the lobe traversals, caps marked) or marking (cap rows, map patch lookups, Ŝ corners)",
+    },
 ];
 
 impl IsgOptions {
@@ -130,6 +141,11 @@ impl IsgOptions {
                 _ => Diffuse::Map,
             },
             refine: o.int("refine") as usize,
+            counters: match o.choice("counters") {
+                "traversal" => 1,
+                "marking" => 2,
+                _ => 0,
+            },
         }
     }
 
