@@ -29,13 +29,13 @@
 // Patches per side at most (one 32-bit mask word per row).
 #define ISG_MAX_SIDE 32
 
-// Work counters of the cost model (the `counters` option of technique isg compiles ISG_COUNTERS and
-// shows them instead of radiance): 0 BVH nodes of the hemisphere traversal, 1 BVH nodes of the lobe
-// traversals, 2 caps marked, 3 cap rows marked (one acos each), 4 patch radiance lookups of
-// diffuse=map, 5 Ŝ corner evaluations. No-ops otherwise.
+// Work counters of the cost model (option `counters` of technique isg compiles ISG_COUNTERS, and
+// the shader then shows them instead of radiance): 0 BVH nodes of the hemisphere traversal, 1 BVH
+// nodes of the lobe traversals, 2 caps marked (spheres, the horizon, half-spaces), 3 cap rows (one
+// acos each), 4 patch radiance lookups of diffuse=map, 5 Ŝ corner evaluations. Kept in workgroup
+// memory, 6 slots per invocation of a 64-invocation group (as private globals, llvmpipe's JIT compile
+// of this shader ran past 4 minutes). No-ops in the radiance shader.
 #ifdef ISG_COUNTERS
-// Kept in workgroup memory, 6 slots per invocation (private globals made llvmpipe's JIT compile
-// of this shader run for minutes).
 shared uint s_isg_count[6 * 64];
 #define ISG_COUNT(i, n) s_isg_count[6u * gl_LocalInvocationIndex + (i)] += uint(n)
 #else
@@ -132,13 +132,8 @@ void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
     int i_lo = int(clamp(ceil((theta_c - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
     int i_hi = int(clamp(floor((theta_c + psi - g.lo) / g.delta - 0.5), -1.0, last));
     ISG_COUNT(2, 1);
-    // A row already full is skipped (its acos would change nothing): blockers seen behind the
-    // ground's plane or inside an earlier cap cost no row work there.
-    for (int i = i_lo; i <= i_hi; ++i) {
-        if (mask[i] == full) continue;
-        ISG_COUNT(3, 1);
-        mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
-    }
+    ISG_COUNT(3, max(i_hi - i_lo + 1, 0));
+    for (int i = i_lo; i <= i_hi; ++i) mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
 }
 
 // Ŝ at a corner given its warped coordinates (table) or its angles (the paper's fit).
@@ -249,8 +244,7 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
         isg_mark_cap(mask, g, -n, ISG_HALF_PI);
         horizon = isg_occluded_sum(mask, g, lambda, st.evaluator);
     }
-    // Planes first: the rows they fill are then skipped by the spheres' caps (isg_mark_cap).
-    bool marked = isg_planes_mark(mask, g);  // plane blockers (isg_planes.glsl)
+    bool marked = false;
     for (int c = 0; c < b.count; ++c) {
         vec4 cap = b.caps[c];
         // Cone test of the cap against the cone holding the grid.
@@ -261,6 +255,7 @@ vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSetting
 #ifdef ISG_THIN
     if (isg_thin_mark(mask, g)) marked = true;  // thin-shell triangles (isg_thin.glsl)
 #endif
+    if (isg_planes_mark(mask, g)) marked = true;  // plane blockers (isg_planes.glsl)
     return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
 }
 

@@ -29,9 +29,6 @@ pub struct EnvironmentResources {
     /// Γ_L at λ = 4^(k−1), k = 0..8, stacked vertically (read by `prefiltered_lookup` in
     /// shaders-glsl/shade/prefiltered.glsl).
     pub prefiltered: Image,
-    /// The same levels on the CPU (level k's rows follow level k − 1's), for techniques that derive
-    /// a level of their own (technique `isg`'s patch-width map).
-    pub prefiltered_cpu: Vec<[f32; 3]>,
     /// E(n): the exact clamped-cosine sum over the environment on a grid with rows on both poles
     /// ([`IrradianceGrid`], read by `irradiance_lookup`).
     pub irradiance: Image,
@@ -82,9 +79,7 @@ impl EnvironmentResources {
             &rgba32f_bytes(&stacked),
         );
         match prefiltered {
-            Ok(prefiltered) => {
-                Ok(Self { image, cpu, prefiltered, prefiltered_cpu: stacked, irradiance, sh: RefCell::new(Vec::new()) })
-            }
+            Ok(prefiltered) => Ok(Self { image, cpu, prefiltered, irradiance, sh: RefCell::new(Vec::new()) }),
             Err(e) => {
                 gpu.destroy_image(image);
                 gpu.destroy_image(irradiance);

@@ -19,9 +19,6 @@
 
 layout(binding = 8) uniform sampler2D prefiltered_env;
 layout(binding = 13) uniform sampler2D irradiance_map;
-// One level: the prefiltered environment at the hemisphere grid's patch width, i.e.
-// prefiltered_lookup(prefiltered_env, ·, 12/δ²) mixed on the host (isg::patch_width_map).
-layout(binding = 22) uniform sampler2D patch_env;
 // Twin: engine::passes::shade::isg::GpuSgLobe.
 struct EnvLobe {
     vec3 axis;
@@ -85,10 +82,9 @@ float isg_full_integral(float lambda) {
 IsgGrid isg_hemisphere_mask(vec3 p, vec3 n, IsgSettings st, uint spheres, out uint mask[ISG_MAX_SIDE]) {
     IsgGrid g = isg_grid(n, 0.0, st);
     for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
-    // Planes first: the rows they fill are then skipped by the spheres' caps (isg_mark_cap).
-    isg_planes_mark(mask, g);  // plane blockers (common/isg_planes.glsl)
     if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg.gather_take_whole, spheres);
     isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
+    isg_planes_mark(mask, g);  // plane blockers (common/isg_planes.glsl)
     return g;
 }
 
@@ -104,35 +100,13 @@ float isg_row_weight(IsgGrid g, int i, uint bits) {
     return isg_row_sin2(g, i) * w;
 }
 
-// prefiltered_lookup(prefiltered_env, dir, 12/δ²) in one texture read instead of two: the level mix is
-// baked into patch_env (the same texel grid as one atlas level, the same clamp of v).
-vec3 isg_patch_radiance(vec3 dir) {
-    vec2 uv = envmap_uv(dir);
-    float rows = float(textureSize(patch_env, 0).y);
-    float v = clamp(uv.y, 0.5 / rows, 1.0 - 0.5 / rows);
-    return textureLod(patch_env, vec2(uv.x, v), 0.0).rgb;
-}
-
 // Diffuse mode `map`: E(n) minus the light of the occluded patches of one P × P grid over the
 // hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
 // matched to the patch) times its exact cosine-weighted solid angle.
 vec3 isg_map_irradiance(vec3 n, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
     vec3 irr = irradiance_lookup(irradiance_map, n);
-    // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12 (baked into patch_env).
-    uint any_marked = 0u;
-    for (int i = 0; i < g.side; ++i) any_marked |= mask[i];
-    if (any_marked == 0u) return irr;
-    // The φ factors are the same in every row: cos and sin of each column's centre and its
-    // ∫ sin φ dφ, once per point instead of once per occluded patch.
-    vec2 col_dir[ISG_MAX_SIDE];
-    float col_w[ISG_MAX_SIDE];
-    for (int j = 0; j < g.side; ++j) {
-        if ((any_marked >> uint(j) & 1u) == 0u) continue;
-        float p0 = g.lo + float(j) * g.delta;
-        float ph = p0 + 0.5 * g.delta;
-        col_dir[j] = vec2(cos(ph), sin(ph));
-        col_w[j] = cos(p0) - cos(p0 + g.delta);
-    }
+    // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
+    float lambda_f = 12.0 / (g.delta * g.delta);
     vec3 occluded = vec3(0.0);
     for (int i = 0; i < g.side; ++i) {
         uint m = mask[i];
@@ -145,9 +119,11 @@ vec3 isg_map_irradiance(vec3 n, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
             int j = findLSB(m);
             m &= m - 1u;
             ISG_COUNT(4, 1);
-            vec3 dir = st_ * col_dir[j].x * g.x + row_dir + st_ * col_dir[j].y * g.z;
-            float c = a * col_w[j];
-            occluded += isg_patch_radiance(dir) * c;
+            float p0 = g.lo + float(j) * g.delta;
+            float ph = p0 + 0.5 * g.delta;
+            vec3 dir = st_ * cos(ph) * g.x + row_dir + st_ * sin(ph) * g.z;
+            float c = a * (cos(p0) - cos(p0 + g.delta));
+            occluded += prefiltered_lookup(prefiltered_env, dir, lambda_f) * c;
         }
     }
     return max(irr - occluded, vec3(0.0));
@@ -194,14 +170,14 @@ vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, uint mask[ISG_MAX_SIDE
 
 vec3 shade_point_radiance(ShadePoint sp);
 
-// The counter variant (option `counters`): the work counts of this point instead of its radiance,
-// counters 0–2 (ISG_COUNTERS 1) or 3–5 (ISG_COUNTERS 2); see isg_visibility.glsl.
+// The counter variant (option `counters`): this point's work counts instead of its radiance,
+// counters 0–2 (ISG_COUNTERS 1) or 3–5 (ISG_COUNTERS 2); see common/isg_visibility.glsl.
 vec3 shade_point(ShadePoint sp) {
 #ifdef ISG_COUNTERS
     uint base = 6u * gl_LocalInvocationIndex;
     for (uint i = 0u; i < 6u; ++i) s_isg_count[base + i] = 0u;
     vec3 radiance = shade_point_radiance(sp);
-    // The radiance stays live (a tiny term) so the compiler keeps the whole computation.
+    // The radiance stays live (a negligible term) so that the compiler keeps the whole computation.
     uint first = ISG_COUNTERS == 1 ? 0u : 3u;
     vec3 counts = vec3(s_isg_count[base + first], s_isg_count[base + first + 1u], s_isg_count[base + first + 2u]);
     return counts + min(abs(radiance), vec3(1.0)) * 1e-30;

@@ -28,8 +28,7 @@
 //! Not modelled: anisotropic BRDF lobes. [`cpu`] is the f64 twin of the whole per-point integral.
 
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
-use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Image, ImageDesc, ImageFormat, Recorder, Result};
-use crate::resources::environment::PREFILTER_SIZE;
+use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::tables::MathTables;
 use engine_math::prefilter::resample;
 use engine_math::sg::{fit_envmap_sgs, refine_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
@@ -103,8 +102,6 @@ struct Prepared {
     env_sgs: Buffer,
     params: Buffer,
     tables: MathTables,
-    /// The prefiltered environment at the hemisphere grid's patch width ([`patch_width_map`]).
-    patch_env: Image,
 }
 
 pub struct Isg {
@@ -127,7 +124,6 @@ impl Isg {
             gpu.destroy_buffer(p.env_sgs);
             gpu.destroy_buffer(p.params);
             p.tables.destroy(gpu);
-            gpu.destroy_image(p.patch_env);
         }
     }
 }
@@ -179,29 +175,14 @@ impl Technique for Isg {
                 gpu.upload_buffer("isg-params", BufferDesc::gpu_only(0), std::slice::from_ref(&params))
             }],
         )?;
-        let patch_texels = patch_width_map(&inputs.environment.prefiltered_cpu, o.side);
-        let patch_env = gpu.upload_image(
-            "isg-patch-env",
-            ImageDesc::texture(PREFILTER_SIZE.0 as u32, PREFILTER_SIZE.1 as u32, ImageFormat::Rgba32f),
-            bytemuck::cast_slice(&patch_texels),
-        );
-        let patch_env = match patch_env {
-            Ok(i) => i,
-            Err(e) => {
-                gpu.destroy_buffer(env_sgs);
-                gpu.destroy_buffer(params);
-                return Err(e);
-            }
-        };
         match MathTables::load(gpu, &crate::tables::default_dir(), &[MathTable::IsgLut]) {
             Ok(tables) => {
-                self.prepared = Some(Prepared { env_sgs, params, tables, patch_env });
+                self.prepared = Some(Prepared { env_sgs, params, tables });
                 Ok(())
             }
             Err(e) => {
                 gpu.destroy_buffer(env_sgs);
                 gpu.destroy_buffer(params);
-                gpu.destroy_image(patch_env);
                 Err(GpuError::Other(e.to_string()))
             }
         }
@@ -229,7 +210,6 @@ impl Technique for Isg {
             &[
                 Binding::sampled("prefiltered_env", &env.prefiltered),
                 Binding::sampled("irradiance_map", &env.irradiance),
-                Binding::sampled("patch_env", &p.patch_env),
                 Binding::buffer("EnvSgs", &p.env_sgs),
                 Binding::buffer("IsgTable", &lut.buffer),
                 Binding::buffer("BvhNodes", &inputs.blockers()?.bvh_nodes),
@@ -249,36 +229,6 @@ impl Technique for Isg {
             t.destroy(gpu);
         }
     }
-}
-
-/// The prefiltered environment at the patch width δ = π/P of the hemisphere grid (diffuse=map), as
-/// RGBA32F texels of one atlas level: `prefiltered_lookup` (shaders-glsl/shade/prefiltered.glsl) at
-/// λ = 12/δ² mixes two levels of `atlas` (levels stacked vertically) with weight f; bilinear filtering
-/// is linear in the texels and both levels share one texel grid, so one fetch from this mix of the
-/// two levels is the same value for one texture read instead of two. Computed in f32 as the shader
-/// computes λ, the level and f.
-pub fn patch_width_map(atlas: &[[f32; 3]], side: usize) -> Vec<[f32; 4]> {
-    let texels = PREFILTER_SIZE.0 * PREFILTER_SIZE.1;
-    let levels = (atlas.len() / texels).max(1);
-    let delta = std::f32::consts::PI / side.clamp(1, 32) as f32;
-    let lambda = 12.0 / (delta * delta);
-    let t = (lambda.ln() / 4f32.ln() + 1.0).clamp(0.0, levels as f32 - 1.0);
-    let k = t.floor();
-    let f = t - k;
-    let a = k as usize;
-    let b = (a + 1).min(levels - 1);
-    (0..texels)
-        .map(|i| {
-            let (x, y) = (atlas.get(a * texels + i), atlas.get(b * texels + i));
-            match (x, y) {
-                (Some(x), Some(y)) => {
-                    let m = |c: usize| x[c] * (1.0 - f) + y[c] * f;
-                    [m(0), m(1), m(2), 1.0]
-                }
-                _ => [0.0, 0.0, 0.0, 1.0],
-            }
-        })
-        .collect()
 }
 
 /// The environment as K SGs: the greedy fit of a 128×64 resampling, refined by `refine` rounds of
@@ -305,7 +255,7 @@ pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
     o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
 }
 
-/// The counter variant's define (option `counters`), none for the radiance shader.
+/// The counter variant's define (option `counters`, the cost model), none for the radiance shader.
 fn counter_defines(o: &IsgOptions) -> Vec<(&'static str, &'static str)> {
     match o.counters {
         1 => vec![("ISG_COUNTERS", "1")],

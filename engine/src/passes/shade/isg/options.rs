@@ -168,9 +168,21 @@ mod tests {
         assert_eq!(o.refine, 0);
         assert_eq!((o.k, o.side, o.evaluator), (4, 20, Evaluator::Paper));
         assert_eq!(IsgOptions::parse(&[]).unwrap(), IsgOptions::default(), "schema defaults = IsgOptions::default()");
-        for bad in
-            ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x", "refine=x", "diffuse=x"]
-        {
+        assert_eq!(IsgOptions::parse(&kv("counters=traversal")).unwrap().counters, 1);
+        assert_eq!(IsgOptions::parse(&kv("counters=marking")).unwrap().counters, 2);
+        assert_eq!(IsgOptions::parse(&kv("counters=off")).unwrap().counters, 0);
+        for bad in [
+            "K=0",
+            "patches=33",
+            "eps=1",
+            "threshold=-1",
+            "evaluator=x",
+            "bogus=1",
+            "K=x",
+            "refine=x",
+            "diffuse=x",
+            "counters=1",
+        ] {
             assert!(IsgOptions::parse(&kv(bad)).is_err(), "{bad}");
         }
     }
