@@ -29,6 +29,19 @@
 // Patches per side at most (one 32-bit mask word per row).
 #define ISG_MAX_SIDE 32
 
+// Work counters of the cost model (option `counters` of technique isg compiles ISG_COUNTERS, and
+// the shader then shows them instead of radiance): 0 BVH nodes of the hemisphere traversal, 1 BVH
+// nodes of the lobe traversals, 2 caps marked (spheres, the horizon, half-spaces), 3 cap rows (one
+// acos each), 4 patch radiance lookups of diffuse=map, 5 Ŝ corner evaluations. Kept in workgroup
+// memory, 6 slots per invocation of a 64-invocation group (as private globals, llvmpipe's JIT compile
+// of this shader ran past 4 minutes). No-ops in the radiance shader.
+#ifdef ISG_COUNTERS
+shared uint s_isg_count[6 * 64];
+#define ISG_COUNT(i, n) s_isg_count[6u * gl_LocalInvocationIndex + (i)] += uint(n)
+#else
+#define ISG_COUNT(i, n)
+#endif
+
 const int ISG_EVAL_TABLE = 0;
 const int ISG_EVAL_PAPER = 1;
 
@@ -118,6 +131,8 @@ void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
     float last = float(g.side - 1);
     int i_lo = int(clamp(ceil((theta_c - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
     int i_hi = int(clamp(floor((theta_c + psi - g.lo) / g.delta - 0.5), -1.0, last));
+    ISG_COUNT(2, 1);
+    ISG_COUNT(3, max(i_hi - i_lo + 1, 0));
     for (int i = i_lo; i <= i_hi; ++i) mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
 }
 
@@ -157,6 +172,7 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
             float p1 = g.lo + float(j1) * g.delta;
             float q0 = isg_warp_of(p0, wc, evaluator);
             float q1 = isg_warp_of(p1, wc, evaluator);
+            ISG_COUNT(5, 4);
             sum += isg_corner(t1, p1, s1, q1, lambda, evaluator, fl) - isg_corner(t0, p1, s0, q1, lambda, evaluator, fl)
                  - isg_corner(t1, p0, s1, q0, lambda, evaluator, fl) + isg_corner(t0, p0, s0, q0, lambda, evaluator, fl);
         }
@@ -204,6 +220,7 @@ void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, u
     while (bvh_cursor_next(cur, node)) {
         BvhNode nd = ISG_BVH_NODE(node);
         vec4 s = bvh_sphere(nd);
+        ISG_COUNT(1, 1);
         if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
         if (!bvh_is_leaf(nd)) {
             // Always descend while p is inside the node (its angular radius is then π).
@@ -252,6 +269,7 @@ void isg_mark_traversed(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 p, vec3 n
     while (bvh_cursor_next(cur, node)) {
         BvhNode nd = ISG_BVH_NODE(node);
         vec4 s = bvh_sphere(nd);
+        ISG_COUNT(0, 1);
         if (!bvh_cone_hits(p, g.z, g.cone, s)) continue;
         if (!bvh_is_leaf(nd)) {
             float psi = sphere_subtended_half_angle(p, s);

@@ -6,6 +6,11 @@
 //! first point of the first technique: a BVH should stay well below it).
 //!
 //! `cargo run --release -p demos --bin sphere_scaling -- --counts 16,64,256,1024 --technique isg`
+//!
+//! `--counters` adds the ISG cost model: each `isg` spec is also rendered with its counter variants
+//! (`counters=traversal` and `counters=marking`) and the mean per covered pixel of each work count is
+//! printed (BVH nodes visited by the hemisphere and by the lobe traversals, caps marked, cap rows, map
+//! patch lookups, Ŝ corners).
 
 use anyhow::{ensure, Context, Result};
 use clap::Parser;
@@ -35,6 +40,9 @@ struct Args {
     frames: u32,
     #[arg(long)]
     per_vertex: bool,
+    /// Also print the ISG cost model (mean work counts per covered pixel) of every `isg` spec.
+    #[arg(long)]
+    counters: bool,
     #[arg(long, default_value = "out/sphere_scaling")]
     out: PathBuf,
 }
@@ -50,7 +58,7 @@ fn run() -> Result<()> {
     let gpu = Gpu::new(&GpuDesc::default())?;
     let result = measure_all(&gpu, &args);
     gpu.shutdown()?;
-    let (device, rows) = result?;
+    let (device, rows, counts) = result?;
     println!(
         "scene {} {}x{}{}, {device}",
         args.scene,
@@ -77,15 +85,65 @@ fn run() -> Result<()> {
         let linear = rows.iter().map(|(c, _)| (*c as f64, ms0[0] * *c as f64 / *c0 as f64)).collect();
         p = p.series(plot::Series::new("linear in n", linear, plot::Style::Line).dashed());
     }
+    if !counts.is_empty() {
+        println!("\nISG cost model, mean per covered pixel:");
+        println!("| spheres | technique | {} |", COUNTER_NAMES.join(" | "));
+        println!("|---|---|{}", "---:|".repeat(COUNTER_NAMES.len()));
+        for (count, spec, c) in &counts {
+            let cells: Vec<String> = c.iter().map(|m| format!("{m:.1}")).collect();
+            println!("| {count} | {spec} | {} |", cells.join(" | "));
+        }
+    }
     let svg = args.out.join("sphere_scaling.svg");
     p.write(&svg).with_context(|| format!("writing {}", svg.display()))?;
     eprintln!("wrote {}", svg.display());
     Ok(())
 }
 
+/// The work counts of the ISG counter variants (shaders-glsl/common/isg_visibility.glsl), in order.
+const COUNTER_NAMES: [&str; 6] =
+    ["hemisphere BVH nodes", "lobe BVH nodes", "caps marked", "cap rows", "map patch lookups", "Ŝ corners"];
+
+/// `spec` with `key=value` appended to its options.
+fn with_option(spec: &str, key_value: &str) -> String {
+    if spec.contains(':') {
+        format!("{spec},{key_value}")
+    } else {
+        format!("{spec}:{key_value}")
+    }
+}
+
+/// Mean per covered pixel of the six work counts of ISG spec `spec` (its two counter variants).
+fn mean_counters(
+    gpu: &Gpu,
+    scene: &engine::scene::Scene,
+    args: &Args,
+    spec: &str,
+    covered: &[bool],
+) -> Result<Vec<f64>> {
+    let n = covered.iter().filter(|&&c| c).count().max(1) as f64;
+    let mut out = Vec::new();
+    for variant in ["counters=traversal", "counters=marking"] {
+        let settings = RenderSettings {
+            width: args.width,
+            height: args.height,
+            technique: with_option(spec, variant),
+            per_vertex: args.per_vertex,
+            ..Default::default()
+        };
+        let m = measure::measure_technique(gpu, scene, settings, 1)?;
+        for c in 0..3 {
+            let sum: f64 = m.hdr.chunks_exact(4).zip(covered).filter(|(_, &k)| k).map(|(p, _)| p[c] as f64).sum();
+            out.push(sum / n);
+        }
+    }
+    Ok(out)
+}
+
 #[allow(clippy::type_complexity)]
-fn measure_all(gpu: &Gpu, args: &Args) -> Result<(String, Vec<(usize, Vec<f64>)>)> {
+fn measure_all(gpu: &Gpu, args: &Args) -> Result<(String, Vec<(usize, Vec<f64>)>, Vec<(usize, String, Vec<f64>)>)> {
     let mut rows = Vec::new();
+    let mut counts = Vec::new();
     for &count in &args.counts {
         let mut scene = demos::scenes::build(&args.scene, None)?;
         measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
@@ -101,8 +159,16 @@ fn measure_all(gpu: &Gpu, args: &Args) -> Result<(String, Vec<(usize, Vec<f64>)>
             let m = measure::measure_technique(gpu, &scene, settings, args.frames)?;
             eprintln!("{count} spheres, {spec}: {:.1} ms", m.shade_ms);
             ms.push(m.shade_ms);
+            if args.counters && (spec == "isg" || spec.starts_with("isg:")) {
+                let covered: Vec<bool> = measure::object_regions(gpu, &scene, args.width, args.height)?
+                    .iter()
+                    .fold(vec![false; (args.width * args.height) as usize], |acc, r| {
+                        acc.iter().zip(&r.pixels).map(|(a, b)| *a || *b).collect()
+                    });
+                counts.push((count, spec.clone(), mean_counters(gpu, &scene, args, spec, &covered)?));
+            }
         }
         rows.push((count, ms));
     }
-    Ok((gpu.info.name.clone(), rows))
+    Ok((gpu.info.name.clone(), rows, counts))
 }

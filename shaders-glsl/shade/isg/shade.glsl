@@ -118,6 +118,7 @@ vec3 isg_map_irradiance(vec3 n, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
         while (m != 0u) {
             int j = findLSB(m);
             m &= m - 1u;
+            ISG_COUNT(4, 1);
             float p0 = g.lo + float(j) * g.delta;
             float ph = p0 + 0.5 * g.delta;
             vec3 dir = st_ * cos(ph) * g.x + row_dir + st_ * sin(ph) * g.z;
@@ -167,7 +168,25 @@ vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, uint mask[ISG_MAX_SIDE
     return sum;
 }
 
+vec3 shade_point_radiance(ShadePoint sp);
+
+// The counter variant (option `counters`): this point's work counts instead of its radiance,
+// counters 0–2 (ISG_COUNTERS 1) or 3–5 (ISG_COUNTERS 2); see common/isg_visibility.glsl.
 vec3 shade_point(ShadePoint sp) {
+#ifdef ISG_COUNTERS
+    uint base = 6u * gl_LocalInvocationIndex;
+    for (uint i = 0u; i < 6u; ++i) s_isg_count[base + i] = 0u;
+    vec3 radiance = shade_point_radiance(sp);
+    // The radiance stays live (a negligible term) so that the compiler keeps the whole computation.
+    uint first = ISG_COUNTERS == 1 ? 0u : 3u;
+    vec3 counts = vec3(s_isg_count[base + first], s_isg_count[base + first + 1u], s_isg_count[base + first + 2u]);
+    return counts + min(abs(radiance), vec3(1.0)) * 1e-30;
+#else
+    return shade_point_radiance(sp);
+#endif
+}
+
+vec3 shade_point_radiance(ShadePoint sp) {
     IsgSettings st;
     st.side = int(isg.side);
     st.evaluator = int(isg.evaluator);

@@ -115,7 +115,8 @@ pub struct Isg {
 
 impl Isg {
     pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
-        Ok(Self { pipelines: TargetPipelines::new(gpu, "isg")?, thin_pipelines: None, options, prepared: None })
+        let pipelines = TargetPipelines::with_defines(gpu, "isg", &counter_defines(&options))?;
+        Ok(Self { pipelines, thin_pipelines: None, options, prepared: None })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -136,7 +137,9 @@ impl Technique for Isg {
         self.release(gpu);
         let thin_count = inputs.thin()?.triangle_count;
         if thin_count > 0 && self.thin_pipelines.is_none() {
-            self.thin_pipelines = Some(TargetPipelines::with_defines(gpu, "isg", &[("ISG_THIN_SHELLS", "1")])?);
+            let mut defines = counter_defines(&self.options);
+            defines.push(("ISG_THIN_SHELLS", "1"));
+            self.thin_pipelines = Some(TargetPipelines::with_defines(gpu, "isg", &defines)?);
         }
         // `diffuse=map` reads the prefiltered environment itself: no SG fit.
         let fitted = match self.options.diffuse {
@@ -250,6 +253,15 @@ pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
     }
     let sharpest = lobes.iter().map(|l| l.lambda).fold(0.0, f64::max) + COSINE_SG_LAMBDA;
     o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
+}
+
+/// The counter variant's define (option `counters`, the cost model), none for the radiance shader.
+fn counter_defines(o: &IsgOptions) -> Vec<(&'static str, &'static str)> {
+    match o.counters {
+        1 => vec![("ISG_COUNTERS", "1")],
+        2 => vec![("ISG_COUNTERS", "2")],
+        _ => Vec::new(),
+    }
 }
 
 /// The shader's diffuse mode code (`IsgParams::diffuse_mode`).

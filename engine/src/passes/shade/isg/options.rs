@@ -40,6 +40,9 @@ pub struct IsgOptions {
     pub diffuse: Diffuse,
     /// Coordinate-descent rounds refining the greedy environment fit (0: greedy only).
     pub refine: usize,
+    /// The counter variant of the shader (the cost model): 0 radiance, 1 and 2 the work counts
+    /// (shaders-glsl/common/isg_visibility.glsl) instead of radiance.
+    pub counters: u32,
 }
 
 impl Default for IsgOptions {
@@ -52,6 +55,7 @@ impl Default for IsgOptions {
             evaluator: Evaluator::Table,
             diffuse: Diffuse::Map,
             refine: REFINE_ROUNDS,
+            counters: 0,
         }
     }
 }
@@ -110,6 +114,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("6"),
         help: "coordinate-descent rounds refining the greedy SG fit (diffuse=ratio|sg; 0: greedy only)",
     },
+    OptionSpec {
+        key: "counters",
+        aliases: &[],
+        kind: Kind::Choice(&["off", "traversal", "marking"]),
+        default: Some("off"),
+        help: "cost model: show per-point work counts instead of radiance: traversal (BVH nodes of the hemisphere traversal, of the lobe traversals, caps marked) or marking (cap rows, map patch lookups, Ŝ corners)",
+    },
 ];
 
 impl IsgOptions {
@@ -130,6 +141,11 @@ impl IsgOptions {
                 _ => Diffuse::Map,
             },
             refine: o.int("refine") as usize,
+            counters: match o.choice("counters") {
+                "traversal" => 1,
+                "marking" => 2,
+                _ => 0,
+            },
         }
     }
 
@@ -152,9 +168,21 @@ mod tests {
         assert_eq!(o.refine, 0);
         assert_eq!((o.k, o.side, o.evaluator), (4, 20, Evaluator::Paper));
         assert_eq!(IsgOptions::parse(&[]).unwrap(), IsgOptions::default(), "schema defaults = IsgOptions::default()");
-        for bad in
-            ["K=0", "patches=33", "eps=1", "threshold=-1", "evaluator=x", "bogus=1", "K=x", "refine=x", "diffuse=x"]
-        {
+        assert_eq!(IsgOptions::parse(&kv("counters=traversal")).unwrap().counters, 1);
+        assert_eq!(IsgOptions::parse(&kv("counters=marking")).unwrap().counters, 2);
+        assert_eq!(IsgOptions::parse(&kv("counters=off")).unwrap().counters, 0);
+        for bad in [
+            "K=0",
+            "patches=33",
+            "eps=1",
+            "threshold=-1",
+            "evaluator=x",
+            "bogus=1",
+            "K=x",
+            "refine=x",
+            "diffuse=x",
+            "counters=1",
+        ] {
             assert!(IsgOptions::parse(&kv(bad)).is_err(), "{bad}");
         }
     }
