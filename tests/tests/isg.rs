@@ -205,3 +205,19 @@ fn hundreds_of_overlapping_spheres() {
     }
     gpu.shutdown().expect("clean teardown");
 }
+
+// The cost-model counter variants (option `counters`, README "cost model") compile for both shading rates:
+// only `sphere_scaling --counters` runs them (lavapipe takes minutes to build their pipelines), so a shader
+// change that breaks them would otherwise go unseen. shaderc only, no GPU.
+#[test]
+fn counter_variants_compile() {
+    use engine::gpu::{default_shader_root, ShaderCompiler, ShaderStage};
+    let compiler = ShaderCompiler::new(default_shader_root()).expect("shaderc and the shaders-glsl folder");
+    for shader in ["shade/isg/pixel.comp", "shade/isg/vertex.comp"] {
+        for mode in ["1", "2"] {
+            compiler
+                .compile(shader, ShaderStage::Compute, &[("ISG_COUNTERS", mode)])
+                .unwrap_or_else(|e| panic!("{shader} with ISG_COUNTERS={mode}: {e}"));
+        }
+    }
+}
