@@ -50,6 +50,9 @@ struct Args {
     /// loads it, except the furnace, which refuses it: its constant environment is what it tests).
     #[arg(long)]
     env: Option<PathBuf>,
+    /// Rotate the environment about +y by DEG degrees (finite; the viewer's E key turns it further in 30° steps).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = parse_rotation, allow_negative_numbers = true)]
+    env_rotation: f32,
     /// Exposure multiplier before tone mapping (a number in (0, 1e6]).
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure, allow_negative_numbers = true)]
     exposure: f32,
@@ -77,7 +80,7 @@ struct Args {
     memory: bool,
     /// Open the interactive viewer instead of rendering to files (drag: orbit, wheel: zoom,
     /// T: technique, B: BRDF of the glossy materials (diffuse, Blinn-Phong, Ashikhmin-Shirley, GGX),
-    /// V: per-vertex/per-pixel, +/-: exposure, R: reset, with --animate P/space: pause, ./,: step a
+    /// E: turn the environment 30°, V: per-vertex/per-pixel, +/-: exposure, R: reset, with --animate P/space: pause, ./,: step a
     /// frame, Esc: quit).
     #[arg(long, conflicts_with_all = ["frames", "spp", "capture", "export"])]
     window: bool,
@@ -115,6 +118,14 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
         Ok(x)
     } else {
         Err(format!("{x} is not in (0, {MAX_EXPOSURE:e}]: the exposure multiplies the radiance before tone mapping"))
+    }
+}
+
+/// `--env-rotation`: any finite angle in degrees.
+fn parse_rotation(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("'{s}' is not a finite number of degrees")),
     }
 }
 
@@ -232,6 +243,9 @@ fn run() -> anyhow::Result<()> {
     };
     let loaded = demos::scenes::load(&args.scene, args.env.as_deref(), &opts)?;
     let mut scene = loaded.scene;
+    if args.env_rotation.rem_euclid(360.0) != 0.0 {
+        scene.environment = scene.environment.rotated_y(args.env_rotation);
+    }
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
     }

@@ -161,7 +161,7 @@ impl App<'_> {
         self.window = Some(window);
         self.swapchain = Some(swapchain);
         eprintln!(
-            "viewer: drag to orbit, wheel to zoom, T technique ({}), V per-vertex/per-pixel, B BRDF, +/- exposure, R reset, Esc quit",
+            "viewer: drag to orbit, wheel to zoom, T technique ({}), V per-vertex/per-pixel, B BRDF, E rotate the environment, +/- exposure, R reset, Esc quit",
             TECHNIQUES.iter().map(|t| t.name).collect::<Vec<_>>().join("/")
         );
         Ok(())
@@ -244,6 +244,16 @@ impl App<'_> {
                     let s = &mut self.renderer.settings;
                     s.per_vertex = !s.per_vertex;
                     eprintln!("viewer: {}", if s.per_vertex { "per-vertex shading" } else { "per-pixel shading" });
+                    self.smoothed.clear();
+                }
+                "e" | "E" => {
+                    let degrees = (self.renderer.environment_rotation() + ENV_STEP_DEGREES).rem_euclid(360.0);
+                    let start = Instant::now();
+                    self.renderer.set_environment_rotation(self.gpu, degrees)?;
+                    eprintln!(
+                        "viewer: environment turned to {degrees:.0}° from where the scene (and --env-rotation) put it (prepared in {:.0} ms)",
+                        start.elapsed().as_secs_f64() * 1e3
+                    );
                     self.smoothed.clear();
                 }
                 "r" | "R" => {
@@ -368,6 +378,8 @@ mod tests {
 
 /// One step of `,`/`.` in the viewer: a frame at 30 frames per second.
 const STEP_S: f32 = 1.0 / 30.0;
+/// The E key turns the environment by this much about +y (each turn prepares the environment again).
+const ENV_STEP_DEGREES: f32 = 30.0;
 
 /// The viewer's animation time: follows the wall clock while playing; `P`/space pauses and resumes, `.`/`,` step
 /// one frame forward/back (and pause). Never negative.

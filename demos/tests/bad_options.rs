@@ -83,6 +83,8 @@ fn meaningless_or_impossible_options_are_refused_before_the_gpu() {
         (&["--exposure", "inf"], &["--exposure", "inf"]),
         (&["--exposure", "-1"], &["--exposure", "-1"]),
         (&["--exposure", "0"], &["--exposure", "0"]),
+        (&["--env-rotation", "nan"], &["--env-rotation", "not a finite number"]),
+        (&["--env-rotation", "1e40"], &["--env-rotation", "not a finite number"]),
         (&["--technique", "isg:patches=4,patches=8"], &["patches", "more than once"]),
         (&["--brdf", "blinn-phong:s=10,s=20"], &["'s'", "more than once"]),
         (&["--name", ""], &["--name", "not a file name"]),

@@ -216,6 +216,37 @@ impl Renderer {
         Ok(())
     }
 
+    /// Rotate the environment about +y to `degrees` (absolute, from the scene's unrotated map) from the
+    /// next frame on. Everything derived from it is recomputed (textures, prefiltered maps, irradiance
+    /// grid, SH projections) and the technique is prepared again (its SG or SH fits depend on it; the
+    /// reference restarts): an event that costs about as much as switching technique, not a per-frame
+    /// animation. On error the renderer keeps its previous environment and technique.
+    pub fn set_environment_rotation(&mut self, gpu: &Gpu, degrees: f32) -> Result<()> {
+        if degrees == self.scene.environment.rotation_degrees {
+            return Ok(());
+        }
+        let environment = self.scene.environment.rotated(gpu, degrees)?;
+        gpu.wait_idle()?;
+        let old_environment = std::mem::replace(&mut self.scene.environment, environment);
+        match make_technique(gpu, &self.scene, &self.settings.technique) {
+            Ok((t, reads)) => {
+                std::mem::replace(&mut self.technique, t).destroy(gpu);
+                self.reads = reads;
+                old_environment.destroy(gpu);
+                Ok(())
+            }
+            Err(e) => {
+                std::mem::replace(&mut self.scene.environment, old_environment).destroy(gpu);
+                Err(e)
+            }
+        }
+    }
+
+    /// The environment's current rotation about +y (degrees).
+    pub fn environment_rotation(&self) -> f32 {
+        self.scene.environment.rotation_degrees
+    }
+
     pub fn technique_name(&self) -> &'static str {
         self.technique.name()
     }

@@ -17,7 +17,8 @@
 //! The checker pattern: the materials have no textures, so the light and the dark squares are two meshes with
 //! two materials, at y = 0; under them a larger ground (the table, a third material) at y = −0.002 is the plane
 //! blocker. `--brdf` and the viewer's `B` key change the glossy materials 0 and 1, the white and black pieces
-//! (diffuse to Blinn-Phong s = 1000+, Cook-Torrance, Ashikhmin–Shirley). The engine has no environment rotation, so the environment stays fixed.
+//! (diffuse to Blinn-Phong s = 1000+, Cook-Torrance, Ashikhmin–Shirley). The environment turns by events
+//! (`--env-rotation`, the viewer's `E` key, `Renderer::set_environment_rotation`), not per animation frame.
 
 use super::{shapes, Motion, Pose, Rest, SceneEntry, SceneInputs};
 use engine::blockers::Sphere;

@@ -502,21 +502,9 @@ pub fn parse_scene_file(text: &str) -> std::result::Result<SceneFile, String> {
     toml::from_str(text).map_err(|e| e.to_string())
 }
 
-/// Rotate a lat-long environment about +y by `degrees`: every row shifts by `degrees / 360` of its width,
-/// interpolating linearly between columns (a whole-texel shift is exact).
+/// Rotate a lat-long environment about +y by `degrees` ([`LatLongMap::rotated_y`]).
 pub fn rotate_environment(env: &LatLongMap, degrees: f32) -> LatLongMap {
-    let w = env.width;
-    let shift = (degrees as f64 / 360.0).rem_euclid(1.0) * w as f64;
-    let (whole, frac) = (shift.floor() as usize, (shift - shift.floor()) as f32);
-    let mut texels = env.texels.clone();
-    for y in 0..env.height {
-        for x in 0..w {
-            let a = env.texels[y * w + (x + w - whole % w) % w];
-            let b = env.texels[y * w + (x + 2 * w - whole % w - 1) % w];
-            texels[y * w + x] = [0, 1, 2].map(|c| (1.0 - frac) * a[c] + frac * b[c]);
-        }
-    }
-    LatLongMap { width: env.width, height: env.height, texels }
+    env.rotated_y(degrees)
 }
 
 /// `--scene FILE.toml`.

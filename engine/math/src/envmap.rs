@@ -98,6 +98,26 @@ impl LatLongMap {
         bilinear_wrap_u(|c, r| self.texel(c, r), self.width, self.height, u * self.width as f64 - 0.5, y)
     }
 
+    /// This map rotated about +y by `degrees`: every row shifts by `degrees / 360` of its width,
+    /// interpolating linearly between columns (a whole-texel shift is exact; 360° is the identity).
+    pub fn rotated_y(&self, degrees: f32) -> Self {
+        let w = self.width;
+        if w == 0 {
+            return self.clone();
+        }
+        let shift = (degrees as f64 / 360.0).rem_euclid(1.0) * w as f64;
+        let (whole, frac) = (shift.floor() as usize % w, (shift - shift.floor()) as f32);
+        let mut texels = self.texels.clone();
+        for y in 0..self.height {
+            for x in 0..w {
+                let a = self.texels[y * w + (x + w - whole) % w];
+                let b = self.texels[y * w + (x + 2 * w - whole - 1) % w];
+                texels[y * w + x] = [0, 1, 2].map(|c| (1.0 - frac) * a[c] + frac * b[c]);
+            }
+        }
+        Self { width: w, height: self.height, texels }
+    }
+
     /// Downsample by an integer box filter weighted by texel solid angle (keeps the integral).
     pub fn downsample(&self, factor: usize) -> Self {
         assert!(factor >= 1 && self.width.is_multiple_of(factor) && self.height.is_multiple_of(factor));

@@ -26,6 +26,11 @@ pub struct EnvironmentResources {
     pub image: Image,
     /// The same on the CPU, for techniques' `prepare` (SG fits, sampling tables).
     pub cpu: LatLongMap,
+    /// The unrotated map (scaled like `cpu`), from which [`Self::rotated`] resamples: rotations do not
+    /// accumulate resampling blur.
+    base: LatLongMap,
+    /// The rotation about +y (degrees) of `cpu` against `base`.
+    pub rotation_degrees: f32,
     /// Γ_L at λ = 4^(k−1), k = 0..8, stacked vertically (read by `prefiltered_lookup` in
     /// shaders-glsl/shade/prefiltered.glsl).
     pub prefiltered: Image,
@@ -42,11 +47,26 @@ fn rgba32f_bytes(texels: &[[f32; 3]]) -> Vec<u8> {
 
 impl EnvironmentResources {
     pub fn new(gpu: &Gpu, environment: &LatLongMap, intensity: f32) -> Result<Self> {
-        let cpu = LatLongMap {
+        let base = LatLongMap {
             width: environment.width,
             height: environment.height,
             texels: environment.texels.iter().map(|t| t.map(|c| c * intensity)).collect(),
         };
+        Self::build(gpu, base, 0.0)
+    }
+
+    /// The same environment rotated about +y by `degrees` (from the unrotated map, not from this
+    /// rotation): every derived map is recomputed, so this is a scene-change event, not a per-frame
+    /// operation (the textures and grids are uploaded anew).
+    pub fn rotated(&self, gpu: &Gpu, degrees: f32) -> Result<Self> {
+        if !degrees.is_finite() {
+            return Err(crate::gpu::GpuError::Other(format!("environment rotation {degrees}° is not finite")));
+        }
+        Self::build(gpu, self.base.clone(), degrees)
+    }
+
+    fn build(gpu: &Gpu, base: LatLongMap, degrees: f32) -> Result<Self> {
+        let cpu = if degrees.rem_euclid(360.0) == 0.0 { base.clone() } else { base.rotated_y(degrees) };
         let irr = IrradianceGrid::compute(&cpu, IRRADIANCE_SIZE.0, IRRADIANCE_SIZE.1);
         let mut stacked = Vec::with_capacity(PREFILTER_SIZE.0 * PREFILTER_SIZE.1 * PREFILTER_LEVELS);
         for level in 0..PREFILTER_LEVELS {
@@ -79,7 +99,15 @@ impl EnvironmentResources {
             &rgba32f_bytes(&stacked),
         );
         match prefiltered {
-            Ok(prefiltered) => Ok(Self { image, cpu, prefiltered, irradiance, sh: RefCell::new(Vec::new()) }),
+            Ok(prefiltered) => Ok(Self {
+                image,
+                cpu,
+                base,
+                rotation_degrees: degrees,
+                prefiltered,
+                irradiance,
+                sh: RefCell::new(Vec::new()),
+            }),
             Err(e) => {
                 gpu.destroy_image(image);
                 gpu.destroy_image(irradiance);
