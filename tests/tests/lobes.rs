@@ -282,28 +282,30 @@ fn twin_hard_cases_are_sane() {
     }
 }
 
-// Overflow is counted and reported, never silent: on `chess` (308 spheres) most receivers see more than
-// MAX_BLOCKERS blockers in the environment mask's cone and the technique says so; on `lamp-one` (the bunny's 64
-// spheres) none does; a second call without a frame in between reports nothing (the counters restart).
+// Overflow is counted and reported, never silent: on `chess` (308 spheres) with the leaves-only gather
+// (`take_whole=0`) most receivers see more than MAX_BLOCKERS blockers in the environment mask's cone and the
+// technique says so; on `lamp-one` (the bunny's 64 spheres) at the defaults none does; a second call without a
+// frame in between reports nothing (the counters restart).
 #[test]
 fn blocker_overflow_is_reported() {
     let gpu = engine_tests::gpu();
     let mut lines = Vec::new();
-    for name in ["chess", "lamp-one"] {
+    for (name, spec) in [("chess", "lobes:take_whole=0"), ("lamp-one", "lobes")] {
         let scene = demos::scenes::build(name, None).expect("scene");
-        let settings = RenderSettings { width: 32, height: 24, technique: "lobes".into(), ..Default::default() };
+        let settings = RenderSettings { width: 32, height: 24, technique: spec.into(), ..Default::default() };
         let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
         r.render(&gpu).expect("frame");
         let first = r.technique_warnings(&gpu).expect("warnings");
         let second = r.technique_warnings(&gpu).expect("warnings");
         r.destroy(&gpu);
-        eprintln!("{name}: {first:?}");
+        eprintln!("{name} {spec}: {first:?}");
         assert!(second.is_empty(), "{name}: counters not reset: {second:?}");
         lines.push(first);
     }
     gpu.shutdown().expect("clean teardown");
     assert_eq!(lines[0].len(), 1, "chess: one overflow line expected");
     assert!(lines[0][0].contains("more than 64 blockers"), "{}", lines[0][0]);
+    assert!(lines[0][0].contains("light masks 0"), "chess has no lights: {}", lines[0][0]);
     assert!(lines[1].is_empty(), "lamp-one: {:?}", lines[1]);
 }
 
