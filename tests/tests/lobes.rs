@@ -1,16 +1,18 @@
 //! Technique `lobes` on lavapipe: the GPU pass against its f64 twin (engine::passes::shade::lobes::cpu)
 //! per receiver, with spherical lights, sphere and plane blockers and hard light placements; and the
 //! twin against closed forms: one light without blockers = the analytic lobe integral, a fully
-//! hidden light → 0, a half-covered light → the covered fraction; no NaN or inf anywhere.
+//! hidden light → 0, a half-covered light → the covered fraction; no NaN or inf anywhere. The BVH cut:
+//! far nodes taken whole (GPU = twin, little change against leaves only) and the coarsening retry.
 
 use engine::blockers::{BlockerPlane, Sphere};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
-use engine::passes::shade::lobes::cpu::{Twin, TwinLight, TwinReceiver};
+use engine::blockers::bvh::GpuBvhNode;
+use engine::passes::shade::lobes::cpu::{Twin, TwinBvh, TwinLight, TwinReceiver};
 use engine::passes::shade::lobes::{Leaves, LobesOptions};
-use engine::renderer::RenderSettings;
+use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::{Scene, SphereLight};
-use engine_tests::{assert_finite, render_with_gbuffer, rgb};
+use engine_tests::{assert_finite, rgb, Receiver};
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 
@@ -21,11 +23,62 @@ const C: Vec3 = Vec3::new(0.1, 0.6, -0.1);
 const R: f32 = 0.45;
 const ALBEDO: [f64; 2] = [0.7, 0.8];
 
-fn scene(lights: Vec<SphereLight>, planes: Vec<BlockerPlane>) -> (Scene, Vec<Sphere>) {
+fn scene(lights: Vec<SphereLight>, planes: Vec<BlockerPlane>) -> Scene {
     let mut scene = engine_tests::fixtures::sphere_over_plane(LatLongMap::constant(64, 32, [ENV; 3]), 0.7, C, R);
     scene.lights = lights;
     scene.blockers.planes = planes;
-    (scene, vec![Sphere::new(C.as_dvec3(), R as f64)])
+    scene
+}
+
+/// The scene of [`scene`] whose ball casts its shadow as `spheres` (in the unit ball's space: world
+/// C + R x, radius R r) instead of one sphere.
+fn cloud_scene(lights: Vec<SphereLight>, spheres: Vec<Sphere>) -> Scene {
+    let mut s = scene(lights, vec![]);
+    s.blockers.spheres[1] = Some(spheres);
+    s
+}
+
+/// `n` × `n` × `n` spheres of radius `r` on a grid of step `step` about `centre` (unit ball space).
+fn grid(n: usize, step: f64, r: f64, centre: DVec3) -> Vec<Sphere> {
+    let h = 0.5 * (n as f64 - 1.0);
+    let mut out = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let x = DVec3::new(i as f64 - h, j as f64 - h, k as f64 - h) * step;
+                out.push(Sphere::new(centre + x, r));
+            }
+        }
+    }
+    out
+}
+
+/// Render one frame; the radiance, the receivers and the blocker BVH the shader read (its node array
+/// and world spheres, read back, so the twin cuts exactly the GPU's tree).
+fn render_for_twin(gpu: &engine::gpu::Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, Vec<Receiver>, TwinBvh) {
+    let pixels = (settings.width * settings.height) as usize;
+    let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
+    r.render(gpu).expect("frame");
+    let hdr = r.read_radiance(gpu).expect("radiance");
+    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
+    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
+    let n = r.scene.blockers.sphere_count as usize;
+    let mut spheres = gpu.read_buffer::<[f32; 4]>(&r.scene.blockers.spheres).expect("spheres");
+    spheres.truncate(n);
+    let mut nodes = gpu.read_buffer::<GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
+    nodes.truncate((2 * n).saturating_sub(1));
+    r.destroy(gpu);
+    let g = (0..pixels)
+        .map(|i| {
+            let (p, n) = (&pos[4 * i..4 * i + 4], &nrm[4 * i..4 * i + 4]);
+            (p[3] >= 0.5).then(|| {
+                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
+            })
+        })
+        .collect();
+    let world = spheres.iter().map(|a| Sphere::from_array(a.map(f64::from))).collect();
+    (hdr, g, TwinBvh::from_nodes(nodes, world))
 }
 
 fn twin_lights(scene: &Scene) -> Vec<TwinLight> {
@@ -41,9 +94,10 @@ fn twin_lights(scene: &Scene) -> Vec<TwinLight> {
 }
 
 /// GPU vs twin, relative to the receiver's unshadowed scale (ρ L_env + Σ U), over every 2nd receiver.
-fn compare(gpu: &engine::gpu::Gpu, scene: &Scene, world: &[Sphere], spec: &str, o: &LobesOptions) -> Vec<f64> {
+fn compare(gpu: &engine::gpu::Gpu, scene: &Scene, spec: &str, o: &LobesOptions) -> Vec<f64> {
     let settings = RenderSettings { width: W, height: H, technique: spec.into(), ..Default::default() };
-    let (hdr, g) = render_with_gbuffer(gpu, scene, settings);
+    let (hdr, g, world) = render_for_twin(gpu, scene, settings);
+    let world = &world;
     assert_finite(&hdr, spec);
     assert!(hdr.iter().all(|v| *v >= 0.0), "{spec}: negative radiance");
     let twin = Twin::new(o).expect("twin tables");
@@ -102,8 +156,8 @@ fn gpu_matches_the_f64_twin() {
         ("lobes", LobesOptions::default(), vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect]),
     ];
     for (spec, o, planes) in cases {
-        let (s, world) = scene(vec![key, fill], planes.clone());
-        let errs = compare(&gpu, &s, &world, spec, &o);
+        let s = scene(vec![key, fill], planes.clone());
+        let errs = compare(&gpu, &s, spec, &o);
         check(&errs, spec, if planes.is_empty() { "one sphere, two lights" } else { "with planes" }, 2e-3, 0.05);
     }
     gpu.shutdown().expect("clean teardown");
@@ -123,11 +177,15 @@ fn hard_lights_are_finite_and_match_the_twin() {
         light([-1.3, 1.2, 0.8], 1.0, [2.0, 2.0, 2.0]),
     ];
     let rect = BlockerPlane::rectangle(DVec3::new(0.3, 1.5, 0.6), DVec3::new(0.3, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.3));
-    let (s, world) = scene(lights, vec![rect]);
+    let s = scene(lights, vec![rect]);
     let o = LobesOptions::default();
-    let errs = compare(&gpu, &s, &world, "lobes", &o);
+    let errs = compare(&gpu, &s, "lobes", &o);
     check(&errs, "lobes", "hard lights", 2e-3, 0.05);
     gpu.shutdown().expect("clean teardown");
+}
+
+fn bvh(spheres: &[Sphere]) -> TwinBvh {
+    TwinBvh::new(spheres).expect("valid spheres")
 }
 
 fn receiver(n: DVec3) -> TwinReceiver {
@@ -150,7 +208,7 @@ fn one_light_without_blockers_is_the_analytic_lobe_integral() {
         ] {
             let n = DVec3::new(tilt.sin(), tilt.cos(), 0.0);
             let l = TwinLight { center: DVec3::new(0.0, dist, 0.0), radius, radiance: [1.0; 3] };
-            let t = twin.light_terms(&receiver(n), &l, &[], &[]);
+            let t = twin.light_terms(&receiver(n), &l, &TwinBvh::default(), &[]);
             let alpha = (radius / dist).asin();
             let lobe = twin.cap_lobe(DVec3::Y, alpha, [1.0; 3], energy, 1.0);
             let want = lobe.s[0] / PI * clamped_cosine_integral(lobe.e, n.y);
@@ -174,7 +232,7 @@ fn hidden_and_half_covered_lights() {
     for leaves in [Leaves::Half, Leaves::Conservative, Leaves::Aggressive] {
         let twin = Twin::new(&LobesOptions { leaves, depth: 5, ..Default::default() }).expect("tables");
         // A sphere of radius 1 at height 2 subtends 30°, the light 5.7° (mask 8.6°): fully hidden.
-        let hidden = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 1.0)], &[]);
+        let hidden = twin.light_terms(&receiver(n), &l, &bvh(&[Sphere::new(DVec3::new(0.0, 2.0, 0.0), 1.0)]), &[]);
         let left = hidden.radiance()[0] / hidden.u[0];
         eprintln!("hidden light ({leaves:?}): {left:.2e} of U left, {} leaves", hidden.leaves);
         assert!(hidden.hidden && left == 0.0, "{left}");
@@ -183,14 +241,14 @@ fn hidden_and_half_covered_lights() {
         // integral outside 1.25 α: measured 20 % (conservative) and 27 % (aggressive) left. This is the
         // cap lobe's shape error (DESIGN §3), not the mask's.
         let r = 2.0 * (1.25 * (0.4f64 / 4.0).asin()).sin();
-        let mostly = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 2.0, 0.0), r)], &[]);
+        let mostly = twin.light_terms(&receiver(n), &l, &bvh(&[Sphere::new(DVec3::new(0.0, 2.0, 0.0), r)]), &[]);
         let left = mostly.radiance()[0] / mostly.u[0];
         eprintln!("light hidden by a 1.25 α blocker ({leaves:?}): {left:.3} of U left, {} leaves", mostly.leaves);
         assert!(!mostly.hidden && left < 0.3, "{left}");
         // A plate over x > 0 at height 2: half the light (and half the mask) is covered.
         let plate =
             BlockerPlane::rectangle(DVec3::new(1.0, 2.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 1.0));
-        let half = twin.light_terms(&receiver(n), &l, &[], &[plate]);
+        let half = twin.light_terms(&receiver(n), &l, &TwinBvh::default(), &[plate]);
         let v = half.visibility();
         eprintln!("half-covered light ({leaves:?}): visibility {v:.4}");
         assert!((v - 0.5).abs() < 0.05, "{v}");
@@ -204,47 +262,126 @@ fn twin_hard_cases_are_sane() {
     let twin = Twin::new(&LobesOptions::default()).expect("tables");
     let n = DVec3::Y;
     let l = TwinLight { center: DVec3::new(0.0, 4.0, 0.0), radius: 0.4, radiance: [1.0; 3] };
-    let inside = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.0, 0.1, 0.0), 0.5)], &[]);
+    let inside = twin.light_terms(&receiver(n), &l, &bvh(&[Sphere::new(DVec3::new(0.0, 0.1, 0.0), 0.5)]), &[]);
     assert!(inside.radiance()[0] <= 0.02 * inside.u[0], "{inside:?}");
     let behind = TwinLight { center: DVec3::new(0.0, -4.0, 0.0), ..l };
-    let b = twin.light_terms(&receiver(n), &behind, &[], &[]);
+    let b = twin.light_terms(&receiver(n), &behind, &TwinBvh::default(), &[]);
     assert!(b.u[0].is_finite() && b.u[0] < 1e-6, "{b:?}");
-    let free = twin.light_terms(&receiver(n), &l, &[], &[]).u[0];
-    let edge = twin.light_terms(&receiver(n), &l, &[Sphere::new(DVec3::new(0.2, 2.0, 0.0), 0.15)], &[]);
+    let free = twin.light_terms(&receiver(n), &l, &TwinBvh::default(), &[]).u[0];
+    let edge = twin.light_terms(&receiver(n), &l, &bvh(&[Sphere::new(DVec3::new(0.2, 2.0, 0.0), 0.15)]), &[]);
     let ve = edge.radiance()[0] / free;
     assert!(ve > 0.05 && ve < 0.95, "straddling blocker: {ve}");
     for radius in [1e-4, 1e-3, 3.99] {
         let t = twin.light_terms(
             &receiver(DVec3::new(0.6, 0.8, 0.0)),
             &TwinLight { radius, ..l },
-            &[Sphere::new(DVec3::new(0.01, 2.0, 0.0), 0.05)],
+            &bvh(&[Sphere::new(DVec3::new(0.01, 2.0, 0.0), 0.05)]),
             &[],
         );
         assert!(t.u.iter().chain(&t.s).all(|x| x.is_finite() && *x >= 0.0), "radius {radius}: {t:?}");
     }
 }
 
-// Overflow is counted and reported, never silent: on `chess` (308 spheres) most receivers see more than
-// MAX_BLOCKERS blockers in the environment mask's cone and the technique says so; on `lamp-one` (the bunny's 64
-// spheres) none does; a second call without a frame in between reports nothing (the counters restart).
+// Overflow is counted and reported, never silent: on `chess` (308 spheres) with the leaves-only gather
+// (`take_whole=0`) most receivers see more than MAX_BLOCKERS blockers in the environment mask's cone and the
+// technique says so; on `lamp-one` (the bunny's 64 spheres) at the defaults none does; a second call without a
+// frame in between reports nothing (the counters restart).
 #[test]
 fn blocker_overflow_is_reported() {
     let gpu = engine_tests::gpu();
     let mut lines = Vec::new();
-    for name in ["chess", "lamp-one"] {
+    for (name, spec) in [("chess", "lobes:take_whole=0"), ("lamp-one", "lobes")] {
         let scene = demos::scenes::build(name, None).expect("scene");
-        let settings = RenderSettings { width: 32, height: 24, technique: "lobes".into(), ..Default::default() };
+        let settings = RenderSettings { width: 32, height: 24, technique: spec.into(), ..Default::default() };
         let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
         r.render(&gpu).expect("frame");
         let first = r.technique_warnings(&gpu).expect("warnings");
         let second = r.technique_warnings(&gpu).expect("warnings");
         r.destroy(&gpu);
-        eprintln!("{name}: {first:?}");
+        eprintln!("{name} {spec}: {first:?}");
         assert!(second.is_empty(), "{name}: counters not reset: {second:?}");
         lines.push(first);
     }
     gpu.shutdown().expect("clean teardown");
     assert_eq!(lines[0].len(), 1, "chess: one overflow line expected");
     assert!(lines[0][0].contains("more than 64 blockers"), "{}", lines[0][0]);
+    assert!(lines[0][0].contains("light masks 0"), "chess has no lights: {}", lines[0][0]);
     assert!(lines[1].is_empty(), "lamp-one: {:?}", lines[1]);
+}
+
+/// The BVH cut takes far nodes whole: 64 small spheres (radius 0.02, 0.06 apart) about 3 units above the
+/// receiver lie inside one cell of the environment mask (its cells are ~0.36 rad wide about the normal),
+/// so the root is one blocker instead of 64 leaves; the visibility moves by less than one half-weight
+/// finest cell. The light's mask (depth 4 over 0.075 rad) is finer than the spheres: its cut keeps the
+/// leaves, and its S is unchanged.
+#[test]
+fn cut_takes_far_nodes_whole() {
+    let n = DVec3::Y;
+    let cloud = bvh(&grid(4, 0.06, 0.02, DVec3::new(0.5, 3.0, 0.2)));
+    let whole = Twin::new(&LobesOptions::default()).expect("tables");
+    let leaves = Twin::new(&LobesOptions { take_whole: 0.0, ..Default::default() }).expect("tables");
+    let tan_env = engine::passes::shade::lobes::MASK_MAX_HALF_ANGLE.tan();
+    let (b_whole, o_whole) = whole.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    let (b_leaves, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    eprintln!("environment mask: {} blockers whole, {} as leaves", b_whole.len(), b_leaves.len());
+    assert!(!o_whole && !o_leaves);
+    assert_eq!(b_leaves.len(), 64);
+    assert_eq!(b_whole.len(), 1, "the far cloud is one node");
+    let (vw, vl) = (
+        whole.env_visibility(DVec3::ZERO, n, &cloud, &[]),
+        leaves.env_visibility(DVec3::ZERO, n, &cloud, &[]),
+    );
+    eprintln!("environment visibility: {vw:.5} whole, {vl:.5} as leaves");
+    // One finest cell about the normal (0.36² sr) at half weight against ∫cos = π: 2 %.
+    assert!(vw <= vl && vl - vw < 0.02, "{vw} {vl}");
+    let l = TwinLight { center: DVec3::new(1.0, 6.0, 0.4), radius: 0.3, radiance: [1.0; 3] };
+    let (tw, tl) = (whole.light_terms(&receiver(n), &l, &cloud, &[]), leaves.light_terms(&receiver(n), &l, &cloud, &[]));
+    eprintln!("light: S/U {:.4} whole, {:.4} as leaves", tw.s[0] / tw.u[0], tl.s[0] / tl.u[0]);
+    assert!(tw.s[0] > 0.0 && !tw.overflow);
+    assert_eq!(tw.s, tl.s, "the light mask resolves the spheres: leaves kept");
+}
+
+/// The coarsening retry: 512 spheres close above the receiver overflow the environment mask's cut at a
+/// fine take_whole; with `coarsen` the cut is retried coarser until it fits (no overflow), without it
+/// the excess is dropped and counted.
+#[test]
+fn coarsening_retries_an_overflowing_cut() {
+    let n = DVec3::Y;
+    let cloud = bvh(&grid(8, 0.1, 0.03, DVec3::new(0.0, 1.2, 0.0)));
+    let tan_env = engine::passes::shade::lobes::MASK_MAX_HALF_ANGLE.tan();
+    let fine = LobesOptions { take_whole: 0.25, ..Default::default() };
+    let once = Twin::new(&LobesOptions { coarsen: 0, ..fine.clone() }).expect("tables");
+    let retried = Twin::new(&fine).expect("tables");
+    let leaves = Twin::new(&LobesOptions { take_whole: 0.0, ..Default::default() }).expect("tables");
+    let (b_once, o_once) = once.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    let (b_retried, o_retried) = retried.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    let (_, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    eprintln!("coarsening: {} blockers without retry (overflow {o_once}), {} with (overflow {o_retried})", b_once.len(), b_retried.len());
+    assert!(o_leaves && o_once, "the fine cut must overflow");
+    assert!(!o_retried && b_retried.len() <= 64, "the retried cut must fit");
+    let v_once = once.env_visibility(DVec3::ZERO, n, &cloud, &[]);
+    let v_retried = retried.env_visibility(DVec3::ZERO, n, &cloud, &[]);
+    eprintln!("environment visibility: {v_once:.4} dropping, {v_retried:.4} coarsened");
+    assert!(v_retried < v_once, "the dropped blockers cast no shadow: {v_once} {v_retried}");
+}
+
+/// GPU against the twin where the cut matters: the ball's shadow cast by 216 small spheres (6³, radius
+/// 0.027 world): the environment masks of the plane take nodes whole, the ball's own receivers see many
+/// blockers; at the defaults and with a fine take_whole whose cuts overflow and are retried coarser.
+#[test]
+fn gpu_matches_the_twin_on_the_cut() {
+    let gpu = engine_tests::gpu();
+    let key = light([-0.6, 2.2, -0.5], 0.3, [12.0, 9.0, 6.0]);
+    let fill = light([0.9, 1.6, 0.4], 0.15, [20.0, 20.0, 24.0]);
+    let s = cloud_scene(vec![key, fill], grid(6, 0.25, 0.06, DVec3::ZERO));
+    let cases = [
+        ("lobes", LobesOptions::default()),
+        ("lobes:take_whole=0.25", LobesOptions { take_whole: 0.25, ..Default::default() }),
+        ("lobes:take_whole=0.25,coarsen=0", LobesOptions { take_whole: 0.25, coarsen: 0, ..Default::default() }),
+    ];
+    for (spec, o) in cases {
+        let errs = compare(&gpu, &s, spec, &o);
+        check(&errs, spec, "216 small spheres", 2e-3, 0.05);
+    }
+    gpu.shutdown().expect("clean teardown");
 }

@@ -12,8 +12,10 @@
 //   outside the cap and so widens penumbrae).
 // - R × L first (§5.4), each product from the product table; U = Σ ∫_{Ω+} (R_k L) from the
 //   hemisphere table (§4.2).
-// - visibility of light j (§5.3): blockers in the light's mask cone (BVH traversal of the blocker
-//   spheres, leaves only, at most LOBES_MAX_BLOCKERS; plane blockers) classified against the cells
+// - visibility of light j (§5.3): blockers in the light's mask cone (a cut of the blocker BVH: leaves,
+//   and nodes narrower than `take_whole` cells of the finest level taken whole as their bounding
+//   sphere; at most LOBES_MAX_BLOCKERS, else the cut is retried coarser up to `coarsen` times; plane
+//   blockers) classified against the cells
 //   of a quad-tree over a square perpendicular to the light axis (gnomonic coordinates, half-angle
 //   min(extent · α, 1.4)); a wholly covered mask hides the light (S = U); covered cells split down
 //   to `split` (so that leaf lobes are narrower than the light's), then are shadow leaves; partial
@@ -30,7 +32,7 @@
 //   multiply by their cosine-weighted visibility (exact for half-spaces, an equal-solid-angle cap
 //   lobe for rectangles). Glossy: the shared prefiltered
 //   term times the diffuse visibility (luminance ratio).
-// Overflow (more blockers in a light's cone than LOBES_MAX_BLOCKERS) is counted in LobesStats.
+// Overflow (more blockers in a mask's cone than LOBES_MAX_BLOCKERS after the coarsest cut) is counted in LobesStats.
 #include "../common.glsl"
 #include "../prefiltered.glsl"
 #include "../lights.glsl"
@@ -58,12 +60,13 @@ struct LobesParams {
     uint energy_scale;    // 1: light lobes scaled to the cap's solid angle
     uint split;           // covered cells split down to this depth
     float sharpen;        // the light lobes' exponent is e_cap times this
-    uint pad0;
-    uint pad1;
+    float take_whole;     // BVH nodes below this many cells of the finest mask level are taken whole (0: leaves only)
+    uint coarsen;         // on overflow, retries of the cut with take_whole doubled
 };
 layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
-// [3] products pruned by the threshold, [4] shadow leaves. Cumulative (the host resets it).
+// [3] products pruned by the threshold, [4] shadow leaves, [5] receivers whose environment mask
+// overflowed, [6] receivers where some light's mask overflowed. Cumulative (the host resets it).
 layout(std430, binding = 15) buffer LobesStats { uint lobes_stats[8]; };
 layout(std430, binding = 21) readonly buffer BlockerPlanes {
     uint plane_count;
@@ -205,8 +208,29 @@ void lobes_light_visit(vec4 s) {
     g_blocker_count += 1u;
 }
 
-// The spheres whose cone meets the mask cone (apex p, axis, half-angle), leaves only.
-void lobes_collect(vec3 p, vec3 n, vec3 axis, float half_angle) {
+// Whether BVH node s, seen from p, may be taken whole (its bounding sphere as one blocker) in a mask
+// about `axis`: its angular diameter 2β is below `cells` (= take_whole × the gnomonic side w of a cell at
+// the maximal depth) times cos(θ + β) (θ the angle of its centre from the axis, θ + β capped at the
+// mask's corner `corner`). A finest cell at polar angle θ spans w cos²θ radially and w cos θ across, so
+// its longest chord is at least w cos θ; a cap narrower than that holds no cell's four corners. With
+// take_whole ≤ 1 the node therefore covers no cell at any depth, and neither does any sphere under it
+// (a cell is covered only by one blocker holding its four corners): taking it whole changes no covered
+// cell and can only turn partial the finest cells its cap touches that its leaves' caps miss. Near the
+// horizon of the environment mask those cells are narrow radially but weigh little (cos³θ solid angle
+// times cos θ). Twin: cpu::node_is_small.
+bool lobes_node_is_small(vec3 p, vec3 axis, vec4 s, float cells, float corner) {
+    vec3 d = s.xyz - p;
+    float l = length(d);
+    if (!(s.w < l)) return false;
+    float beta = asin(s.w / l);
+    float far = min(lobe_angle_between(d / l, axis) + beta, corner);
+    return 2.0 * beta < cells * cos(far);
+}
+
+// The cut of the blocker BVH for the mask cone (apex p, axis, half-angle `corner`): nodes missing the
+// cone are dropped, leaves and nodes that lobes_node_is_small(cells) are visited (as one blocker
+// each), other nodes opened. cells = 0: leaves only. Sets g_overflow when a blocker was dropped.
+void lobes_collect(vec3 p, vec3 n, vec3 axis, float corner, float cells) {
     g_p = p;
     g_n = n;
     g_blocker_count = 0u;
@@ -216,14 +240,27 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float half_angle) {
     while (bvh_cursor_next(c, v)) {
         BvhNode node = bvh_nodes[v];
         vec4 s = bvh_sphere(node);
-        if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
-        if (bvh_is_leaf(node)) {
+        if (!bvh_cone_hits(p, axis, corner, s)) continue;
+        if (bvh_is_leaf(node) || (cells > 0.0 && lobes_node_is_small(p, axis, s, cells, corner))) {
             lobes_light_visit(s);
         } else if (!bvh_cursor_push_children(c, node.left, node.right)) {
             // Never on the LBVH (bvh.glsl) with this stack: taken whole (conservative) and counted.
             g_overflow = true;
             lobes_light_visit(s);
         }
+    }
+}
+
+// The blockers of the mask about `axis` (square half-side tan_half, maximal depth `depth`): the cut
+// with take_whole cells; while it overflows LOBES_MAX_BLOCKERS, again with take_whole doubled, at most
+// `coarsen` times (then the last cut's excess is dropped and g_overflow stays set). Twin: cpu::Twin::gather.
+void lobes_gather(vec3 p, vec3 n, vec3 axis, float tan_half, uint depth) {
+    float corner = atan(tan_half * sqrt(2.0));
+    float cells = lp.take_whole * 2.0 * tan_half / float(1u << min(depth, uint(LOBES_MAX_DEPTH)));
+    for (uint i = 0u;; ++i) {
+        lobes_collect(p, n, axis, corner, cells);
+        if (!g_overflow || !(cells > 0.0) || i >= lp.coarsen) break;
+        cells *= 2.0;
     }
 }
 
@@ -408,8 +445,8 @@ vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout 
     float tan_half = tan(LOBES_MASK_MAX_HALF_ANGLE);
     g_blocker_count = 0u;
     g_overflow = false;
-    if (lp.sphere_count > 0u) lobes_collect(p, n, n, atan(tan_half * sqrt(2.0)));
-    if (g_overflow) overflow = 1u;
+    if (lp.sphere_count > 0u) lobes_gather(p, n, n, tan_half, lp.depth + 1u);
+    if (g_overflow) overflow |= 1u;
     g_p = p;
     vec3 t, b;
     orthonormal_basis(n, t, b);
@@ -483,12 +520,10 @@ vec3 shade_point(ShadePoint sp) {
             if (u_lum > 0.0 && (lp.sphere_count > 0u || plane_count > 0u)) {
                 float half_angle = min(lp.extent * alpha, LOBES_MASK_MAX_HALF_ANGLE);
                 float tan_half = tan(half_angle);
-                // The cone through the square's corners.
-                float corner = atan(tan_half * sqrt(2.0));
                 g_blocker_count = 0u;
                 g_overflow = false;
-                if (lp.sphere_count > 0u) lobes_collect(p, n, axis, corner);
-                if (g_overflow) overflow = 1u;
+                if (lp.sphere_count > 0u) lobes_gather(p, n, axis, tan_half, lp.depth);
+                if (g_overflow) overflow |= 2u;
                 g_p = p;
                 vec3 t, b;
                 orthonormal_basis(axis, t, b);
@@ -515,6 +550,8 @@ vec3 shade_point(ShadePoint sp) {
     }
     atomicAdd(lobes_stats[0], 1u);
     if (overflow != 0u) atomicAdd(lobes_stats[1], 1u);
+    if ((overflow & 1u) != 0u) atomicAdd(lobes_stats[5], 1u);
+    if ((overflow & 2u) != 0u) atomicAdd(lobes_stats[6], 1u);
     atomicAdd(lobes_stats[2], products);
     atomicAdd(lobes_stats[3], pruned);
     atomicAdd(lobes_stats[4], leaves);

@@ -1,12 +1,14 @@
 //! The f64 twin of `shaders-glsl/shade/lobes/shade.glsl` per receiver: the same tables (read from the
 //! asset files the GPU uploads), the same reflectance and light lobes, the same quad-tree (frame,
 //! cell order, classification, leaf lobes and weights), the same environment occlusion, in f64.
-//! The GPU's BVH traversal visits exactly the leaves whose sphere meets the mask cone, which is
-//! what [`Twin`] does over the sphere list.
+//! The blockers are gathered by the shader's cut of the blocker BVH ([`TwinBvh`]: the same node array,
+//! the same traversal order, the same take-whole rule [`node_is_small`] and the same coarsening
+//! retries), so the twin drops the same blockers when a mask overflows.
 //! Covers `light=lobes` (both light scales, both leaf modes); `light=ratio` reuses the same S/U.
 
 use super::{Leaves, LobesOptions};
 use crate::tables::default_dir;
+use engine_blockers::bvh::{GpuBvhNode, SphereBvh, INVALID};
 use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
 use engine_blockers::plane::BlockerPlane;
 use engine_math::lobes::{
@@ -110,6 +112,63 @@ fn cap_solid_angle(alpha: f64) -> f64 {
     4.0 * PI * h * h
 }
 
+/// The blocker spheres as the shader sees them: the BVH node array (device layout) and the input
+/// spheres its leaves refer to (a leaf is gathered as its input sphere, an internal node taken whole as
+/// its node sphere).
+#[derive(Clone, Debug, Default)]
+pub struct TwinBvh {
+    pub nodes: Vec<GpuBvhNode>,
+    pub spheres: Vec<Sphere>,
+}
+
+impl TwinBvh {
+    /// The CPU reference LBVH over `spheres` (the GPU build's topology; node spheres within f32
+    /// rounding of the GPU's). No spheres: an empty set.
+    pub fn new(spheres: &[Sphere]) -> Result<Self, String> {
+        if spheres.is_empty() {
+            return Ok(Self::default());
+        }
+        let bvh = SphereBvh::build(spheres).map_err(|e| e.to_string())?;
+        Ok(Self { nodes: bvh.gpu_nodes(), spheres: spheres.to_vec() })
+    }
+
+    /// A node array read back from the GPU (its first 2n − 1 nodes) with the n spheres it was built over.
+    pub fn from_nodes(nodes: Vec<GpuBvhNode>, spheres: Vec<Sphere>) -> Self {
+        Self { nodes, spheres }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.spheres.is_empty()
+    }
+
+    fn sphere(&self, v: u32) -> Sphere {
+        let n = &self.nodes[v as usize];
+        if n.left == INVALID && (n.sphere as usize) < self.spheres.len() {
+            self.spheres[n.sphere as usize]
+        } else {
+            engine_blockers::traverse::node_sphere(n)
+        }
+    }
+}
+
+/// The shader's `lobes_node_is_small`: node sphere `s` seen from `p` may be taken whole in a mask
+/// about `axis` (corner half-angle `corner`) when its angular diameter 2β is below `cells` (take_whole
+/// × the gnomonic side of a finest cell) times cos(θ + β), the gnomonic map's tangential scale at its
+/// far edge (θ: its centre's angle from the axis, θ + β capped at `corner`): every finest cell's
+/// longest chord is at least that, so with take_whole ≤ 1 such a node covers no cell, nor does any
+/// sphere under it, and taking it whole changes no covered cell; it can only mark partial the finest
+/// cells its cap touches.
+pub fn node_is_small(p: DVec3, axis: DVec3, s: &Sphere, cells: f64, corner: f64) -> bool {
+    let d = s.center - p;
+    let l = d.length();
+    if !(s.radius < l) {
+        return false;
+    }
+    let beta = (s.radius / l).asin();
+    let far = (angle_between((d / l).to_array(), axis.to_array()) + beta).min(corner);
+    2.0 * beta < cells * far.cos()
+}
+
 /// Everything the twin reads.
 pub struct Twin {
     pub options: LobesOptions,
@@ -174,7 +233,7 @@ impl Twin {
     /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
     /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
     /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
-    pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[BlockerPlane]) -> f64 {
+    pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &TwinBvh, planes: &[BlockerPlane]) -> f64 {
         let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| pl.blocks_receiver(p)).collect();
         let mut v_hs = 1.0;
         for pl in &active {
@@ -233,7 +292,7 @@ impl Twin {
         &self,
         r: &TwinReceiver,
         light: &TwinLight,
-        spheres: &[Sphere],
+        spheres: &TwinBvh,
         planes: &[BlockerPlane],
     ) -> LightTerms {
         let o = &self.options;
@@ -263,6 +322,67 @@ impl Twin {
         out
     }
 
+    /// The shader's `lobes_gather`: the blockers of the mask about `axis` (square half-side `tan_half`,
+    /// maximal depth `depth`) as (direction, half-angle), from the cut with `take_whole` cells, retried
+    /// with the threshold doubled while it overflows [`super::MAX_BLOCKERS`], at most `coarsen` times;
+    /// and whether the last cut still overflowed (its excess dropped).
+    pub fn gather(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        tan_half: f64,
+        depth: u32,
+        spheres: &TwinBvh,
+    ) -> (Vec<(DVec3, f64)>, bool) {
+        let o = &self.options;
+        let corner = (tan_half * 2f64.sqrt()).atan();
+        let mut cells = o.take_whole as f32 as f64 * 2.0 * tan_half / (1u32 << depth.min(super::MAX_DEPTH)) as f64;
+        let mut i = 0;
+        loop {
+            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres);
+            if !overflow || !(cells > 0.0) || i >= o.coarsen {
+                return (blockers, overflow);
+            }
+            cells *= 2.0;
+            i += 1;
+        }
+    }
+
+    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only).
+    fn collect(p: DVec3, n: DVec3, axis: DVec3, corner: f64, cells: f64, bvh: &TwinBvh) -> (Vec<(DVec3, f64)>, bool) {
+        let cone = Cone::new(p, axis, corner);
+        let mut blockers = Vec::new();
+        let mut overflow = false;
+        let mut stack: Vec<u32> = if bvh.is_empty() { Vec::new() } else { vec![0] };
+        while let Some(v) = stack.pop() {
+            let node = &bvh.nodes[v as usize];
+            let s = bvh.sphere(v);
+            if !cone_intersects_sphere(&cone, &s) {
+                continue;
+            }
+            let leaf = node.left == INVALID;
+            if !leaf && !(cells > 0.0 && node_is_small(p, axis, &s, cells, corner)) {
+                // The shader's stack (32) never overflows on the LBVH (bvh.glsl).
+                stack.push(node.right);
+                stack.push(node.left);
+                continue;
+            }
+            let Some(b) = blocker_for_receiver(p, n, &s) else { continue };
+            if b.radius <= 0.0 {
+                continue;
+            }
+            if blockers.len() >= super::MAX_BLOCKERS {
+                overflow = true;
+                continue;
+            }
+            let d = b.center - p;
+            let dir = if d.length() > 0.0 { d.normalize() } else { n };
+            blockers.push((dir, subtended_half_angle(p, &b)));
+        }
+        (blockers, overflow)
+    }
+
     /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
     /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale).
     #[allow(clippy::too_many_arguments)]
@@ -274,33 +394,15 @@ impl Twin {
         axis: DVec3,
         tan_half: f64,
         rl: &[RgbLobe],
-        spheres: &[Sphere],
+        spheres: &TwinBvh,
         planes: &[BlockerPlane],
         with_planes: bool,
         depth: u32,
     ) {
         let o = &self.options;
         let u_lum = lum(out.u);
-        let corner = (tan_half * 2f64.sqrt()).atan();
-        // Blockers in the mask cone, as (direction, half-angle).
-        let cone = Cone::new(p, axis, corner);
-        let mut blockers = Vec::new();
-        for s in spheres {
-            if !cone_intersects_sphere(&cone, s) {
-                continue;
-            }
-            let Some(b) = blocker_for_receiver(p, n, s) else { continue };
-            if b.radius <= 0.0 {
-                continue;
-            }
-            if blockers.len() >= super::MAX_BLOCKERS {
-                out.overflow = true;
-                continue;
-            }
-            let v = b.center - p;
-            let dir = if v.length() > 0.0 { v.normalize() } else { n };
-            blockers.push((dir, subtended_half_angle(p, &b)));
-        }
+        let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres);
+        out.overflow |= overflow;
         let (t, b) = orthonormal_basis(axis);
         let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| with_planes && pl.blocks_receiver(p)).collect();
         let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64| -> u8 {

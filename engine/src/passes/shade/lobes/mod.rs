@@ -7,8 +7,10 @@
 //! - each spherical light as one cap lobe (§5.2, e_cap from the cap table); R × L first (§5.4), then
 //!   the visibility lobes, every product from the product table, integrated over the hemisphere of
 //!   n from the hemisphere table (§4);
-//! - visibility per light (§5.3): blocker spheres in the light's cone (BVH traversal, leaves,
-//!   at most [`MAX_BLOCKERS`]) and plane blockers classified against a quad-tree over a square
+//! - visibility per light (§5.3): blocker spheres in the light's cone (a cut of the BVH: leaves, and
+//!   nodes narrower than `take_whole` cells of the mask's finest level taken whole as their bounding
+//!   sphere; at most [`MAX_BLOCKERS`], else the cut is retried with the threshold doubled, up to
+//!   `coarsen` times) and plane blockers classified against a quad-tree over a square
 //!   perpendicular to the light axis, to `depth` (covered cells to `split`; a wholly covered mask
 //!   hides the light); aggressive or conservative leaves; one cap lobe per
 //!   shadow leaf from its bounding cone, weighted so that its integral is the cell's solid angle
@@ -99,6 +101,20 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("energy"),
         help: "light lobe scale: energy (its integral is the cap's solid angle × L) or paper (L, Eq. 31)",
     },
+    OptionSpec {
+        key: "take_whole",
+        aliases: &[],
+        kind: Kind::closed(0.0, 16.0),
+        default: Some("1"),
+        help: "BVH nodes whose angular diameter is below this many cells of the mask's finest level (local size) are taken whole as their bounding sphere (0: leaves only)",
+    },
+    OptionSpec {
+        key: "coarsen",
+        aliases: &[],
+        kind: Kind::Int { min: 0, max: 8 },
+        default: Some("4"),
+        help: "when a mask's cut still holds more than 64 blockers, retry it with take_whole doubled up to this many times before dropping (and counting) the rest",
+    },
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
@@ -146,6 +162,10 @@ pub struct LobesOptions {
     /// `light_scale=energy`.
     pub energy: bool,
     pub sharpen: f64,
+    /// Nodes narrower than this many finest mask cells are taken whole (0: leaves only).
+    pub take_whole: f64,
+    /// Retries of an overflowing cut with `take_whole` doubled.
+    pub coarsen: u32,
 }
 
 impl Default for LobesOptions {
@@ -160,6 +180,8 @@ impl Default for LobesOptions {
             ratio: false,
             energy: true,
             sharpen: 1.0,
+            take_whole: 1.0,
+            coarsen: 4,
         }
     }
 }
@@ -180,6 +202,8 @@ impl LobesOptions {
             ratio: o.choice("light") == "ratio",
             energy: o.choice("light_scale") == "energy",
             sharpen: o.float("sharpen"),
+            take_whole: o.float("take_whole"),
+            coarsen: o.int("coarsen") as u32,
         }
     }
 }
@@ -199,8 +223,10 @@ pub struct GpuLobesParams {
     pub energy_scale: u32,
     pub split: u32,
     pub sharpen: f32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// Nodes narrower than this many cells of the finest mask level are taken whole.
+    pub take_whole: f32,
+    /// Retries of an overflowing cut with `take_whole` doubled.
+    pub coarsen: u32,
 }
 
 /// The parameter block for `o`.
@@ -216,8 +242,8 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         energy_scale: o.energy as u32,
         split: o.split,
         sharpen: o.sharpen as f32,
-        pad0: 0,
-        pad1: 0,
+        take_whole: o.take_whole as f32,
+        coarsen: o.coarsen,
     }
 }
 
@@ -226,7 +252,8 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
 pub struct LobesStats {
     /// Receivers shaded.
     pub receivers: u64,
-    /// Receivers where some light's cone held more than [`MAX_BLOCKERS`] blockers (the rest dropped).
+    /// Receivers where some mask's cut (the coarsest tried) held more than [`MAX_BLOCKERS`] blockers
+    /// (the rest dropped).
     pub overflowed: u64,
     /// Lobe products computed.
     pub products: u64,
@@ -234,6 +261,10 @@ pub struct LobesStats {
     pub pruned: u64,
     /// Shadow leaves (visibility lobes) of all masks.
     pub leaves: u64,
+    /// Receivers whose environment mask overflowed (part of `overflowed`).
+    pub env_overflowed: u64,
+    /// Receivers where some light's mask overflowed (part of `overflowed`).
+    pub light_overflowed: u64,
 }
 
 /// The user's line for overflowed receivers (none when nothing overflowed).
@@ -241,10 +272,13 @@ pub fn overflow_warning(s: &LobesStats) -> Option<String> {
     (s.overflowed > 0).then(|| {
         format!(
             "lobes: {} of {} shaded receivers ({:.1} %) had more than {MAX_BLOCKERS} blockers in a light's or the \
-             environment's mask cone; the rest were dropped (too little shadow there)",
+             environment's mask cone even after coarsening the cut (environment masks {}, light masks {}); the rest \
+             were dropped (too little shadow there)",
             s.overflowed,
             s.receivers,
-            100.0 * s.overflowed as f64 / s.receivers.max(1) as f64
+            100.0 * s.overflowed as f64 / s.receivers.max(1) as f64,
+            s.env_overflowed,
+            s.light_overflowed,
         )
     })
 }
@@ -282,7 +316,15 @@ impl Lobes {
         let Some(b) = &self.stats else { return Ok(LobesStats::default()) };
         let v: Vec<u32> = gpu.read_buffer(b)?;
         let g = |i: usize| v.get(i).copied().unwrap_or(0) as u64;
-        Ok(LobesStats { receivers: g(0), overflowed: g(1), products: g(2), pruned: g(3), leaves: g(4) })
+        Ok(LobesStats {
+            receivers: g(0),
+            overflowed: g(1),
+            products: g(2),
+            pruned: g(3),
+            leaves: g(4),
+            env_overflowed: g(5),
+            light_overflowed: g(6),
+        })
     }
 
     /// Zero the counters.
