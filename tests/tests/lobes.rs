@@ -4,10 +4,10 @@
 //! hidden light → 0, a half-covered light → the covered fraction; no NaN or inf anywhere. The BVH cut:
 //! far nodes taken whole (GPU = twin, little change against leaves only) and the coarsening retry.
 
+use engine::blockers::bvh::GpuBvhNode;
 use engine::blockers::{BlockerPlane, Sphere};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
-use engine::blockers::bvh::GpuBvhNode;
 use engine::passes::shade::lobes::cpu::{Twin, TwinBvh, TwinLight, TwinReceiver};
 use engine::passes::shade::lobes::{Leaves, LobesOptions};
 use engine::renderer::{RenderSettings, Renderer};
@@ -55,7 +55,11 @@ fn grid(n: usize, step: f64, r: f64, centre: DVec3) -> Vec<Sphere> {
 
 /// Render one frame; the radiance, the receivers and the blocker BVH the shader read (its node array
 /// and world spheres, read back, so the twin cuts exactly the GPU's tree).
-fn render_for_twin(gpu: &engine::gpu::Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, Vec<Receiver>, TwinBvh) {
+fn render_for_twin(
+    gpu: &engine::gpu::Gpu,
+    scene: &Scene,
+    settings: RenderSettings,
+) -> (Vec<f32>, Vec<Receiver>, TwinBvh) {
     let pixels = (settings.width * settings.height) as usize;
     let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
     r.render(gpu).expect("frame");
@@ -327,15 +331,14 @@ fn cut_takes_far_nodes_whole() {
     assert!(!o_whole && !o_leaves);
     assert_eq!(b_leaves.len(), 64);
     assert_eq!(b_whole.len(), 1, "the far cloud is one node");
-    let (vw, vl) = (
-        whole.env_visibility(DVec3::ZERO, n, &cloud, &[]),
-        leaves.env_visibility(DVec3::ZERO, n, &cloud, &[]),
-    );
+    let (vw, vl) =
+        (whole.env_visibility(DVec3::ZERO, n, &cloud, &[]), leaves.env_visibility(DVec3::ZERO, n, &cloud, &[]));
     eprintln!("environment visibility: {vw:.5} whole, {vl:.5} as leaves");
     // One finest cell about the normal (0.36² sr) at half weight against ∫cos = π: 2 %.
     assert!(vw <= vl && vl - vw < 0.02, "{vw} {vl}");
     let l = TwinLight { center: DVec3::new(1.0, 6.0, 0.4), radius: 0.3, radiance: [1.0; 3] };
-    let (tw, tl) = (whole.light_terms(&receiver(n), &l, &cloud, &[]), leaves.light_terms(&receiver(n), &l, &cloud, &[]));
+    let (tw, tl) =
+        (whole.light_terms(&receiver(n), &l, &cloud, &[]), leaves.light_terms(&receiver(n), &l, &cloud, &[]));
     eprintln!("light: S/U {:.4} whole, {:.4} as leaves", tw.s[0] / tw.u[0], tl.s[0] / tl.u[0]);
     assert!(tw.s[0] > 0.0 && !tw.overflow);
     assert_eq!(tw.s, tl.s, "the light mask resolves the spheres: leaves kept");
@@ -356,7 +359,11 @@ fn coarsening_retries_an_overflowing_cut() {
     let (b_once, o_once) = once.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
     let (b_retried, o_retried) = retried.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
     let (_, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
-    eprintln!("coarsening: {} blockers without retry (overflow {o_once}), {} with (overflow {o_retried})", b_once.len(), b_retried.len());
+    eprintln!(
+        "coarsening: {} blockers without retry (overflow {o_once}), {} with (overflow {o_retried})",
+        b_once.len(),
+        b_retried.len()
+    );
     assert!(o_leaves && o_once, "the fine cut must overflow");
     assert!(!o_retried && b_retried.len() <= 64, "the retried cut must fit");
     let v_once = once.env_visibility(DVec3::ZERO, n, &cloud, &[]);
