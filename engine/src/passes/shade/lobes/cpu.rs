@@ -161,7 +161,8 @@ impl TwinBvh {
 pub fn node_is_small(p: DVec3, axis: DVec3, s: &Sphere, cells: f64, corner: f64) -> bool {
     let d = s.center - p;
     let l = d.length();
-    if !(s.radius < l) {
+    // Inside the node's sphere (or NaN): never taken whole.
+    if s.radius.partial_cmp(&l) != Some(std::cmp::Ordering::Less) {
         return false;
     }
     let beta = (s.radius / l).asin();
@@ -341,7 +342,7 @@ impl Twin {
         let mut i = 0;
         loop {
             let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres);
-            if !overflow || !(cells > 0.0) || i >= o.coarsen {
+            if !overflow || cells.is_nan() || cells <= 0.0 || i >= o.coarsen {
                 return (blockers, overflow);
             }
             cells *= 2.0;
@@ -362,7 +363,7 @@ impl Twin {
                 continue;
             }
             let leaf = node.left == INVALID;
-            if !leaf && !(cells > 0.0 && node_is_small(p, axis, &s, cells, corner)) {
+            if !(leaf || cells > 0.0 && node_is_small(p, axis, &s, cells, corner)) {
                 // The shader's stack (32) never overflows on the LBVH (bvh.glsl).
                 stack.push(node.right);
                 stack.push(node.left);
