@@ -106,14 +106,14 @@ pub const OPTIONS: &[OptionSpec] = &[
         aliases: &[],
         kind: Kind::closed(0.0, 16.0),
         default: Some("1"),
-        help: "BVH nodes whose angular diameter is below this many cells of the mask's finest level (local size) are taken whole as their bounding sphere (0: leaves only)",
+        help: "BVH nodes whose angular diameter is below this many cells of the mask's finest level (local size, w cos θ) are taken whole as their bounding sphere (0: leaves only; ≤ 1 changes no covered cell)",
     },
     OptionSpec {
         key: "coarsen",
         aliases: &[],
         kind: Kind::Int { min: 0, max: 8 },
         default: Some("4"),
-        help: "when a mask's cut still holds more than 64 blockers, retry it with take_whole doubled up to this many times before dropping (and counting) the rest",
+        help: "when a mask's cut still holds more than 64 blockers, retry it with `take_whole` doubled up to this many times before dropping (and counting) the rest",
     },
 ];
 
