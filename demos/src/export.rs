@@ -286,6 +286,8 @@ fn plugin_bsdf_xml(id: &str, m: &Material) -> String {
         Brdf::CookTorrance { ndf: Ndf::Beckmann, .. } => "cook-torrance-beckmann",
         Brdf::CookTorrance { ndf: Ndf::Ggx, .. } => "cook-torrance-ggx",
         Brdf::AshikhminShirley { .. } => "ashikhmin-shirley",
+        // Refused before (export_mitsuba): ours_bsdf.py does not implement it.
+        Brdf::Lafortune { .. } => "lafortune",
     };
     let _ = writeln!(x, "    <string name=\"model\" value=\"{model}\"/>");
     for (key, v) in [("kd", m.diffuse), ("ks", m.specular)] {
@@ -303,6 +305,11 @@ fn plugin_bsdf_xml(id: &str, m: &Material) -> String {
                 float(&mut x, &format!("tangent_{c}"), value);
             }
         }
+        Brdf::Lafortune { c, e } => {
+            for (key, value) in ["cx", "cy", "cz", "e"].iter().zip([c[0], c[1], c[2], e]) {
+                float(&mut x, key, value);
+            }
+        }
     }
     x.push_str("  </bsdf>\n");
     x
@@ -311,6 +318,12 @@ fn plugin_bsdf_xml(id: &str, m: &Material) -> String {
 /// Write `dir/scene.xml`, `dir/meshes/*.ply`, `dir/envmap.exr`, `dir/ours_bsdf.py` and `dir/render.py` (module
 /// documentation).
 pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result<Exported> {
+    if let Some(i) = scene.materials.iter().position(|m| matches!(m.brdf, engine::scene::Brdf::Lafortune { .. })) {
+        anyhow::bail!(
+            "material {i} is Phong/Lafortune: the Mitsuba export (ours_bsdf.py) does not implement it yet \
+             (blinn-phong, cook-torrance and ashikhmin-shirley are exported exactly)"
+        );
+    }
     if opts.bsdf == ExportBsdf::Builtin {
         if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
             anyhow::bail!(

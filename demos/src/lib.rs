@@ -63,6 +63,7 @@ pub const BRDF_PRESETS: &[(&str, &str)] = &[
     ("diffuse", "blinn-phong:ks=0"),
     ("Blinn-Phong s=1000", "blinn-phong:s=1000,ks=0.5"),
     ("Ashikhmin-Shirley nu=1000 nv=10", "ashikhmin-shirley:nu=1000,nv=10,ks=0.5"),
+    ("Lafortune anisotropic e=60", "lafortune:cx=-1,cy=-0.85,cz=1,e=60,ks=0.5,tangent=1/0/0"),
     ("Cook-Torrance GGX 0.2", "cook-torrance:roughness=0.2,ndf=ggx,ks=0.5"),
 ];
 

@@ -1,4 +1,4 @@
-// Specular BRDF models of the material (Blinn-Phong, Cook-Torrance, Ashikhmin-Shirley): the exact
+// Specular BRDF models of the material (Blinn-Phong, Cook-Torrance, Ashikhmin-Shirley, Lafortune): the exact
 // f_s, their sampling densities, and the SG lobes per point (ISG Eq. 7–10, Wang et al. 2009).
 // Twin: engine::math::brdf (formulas and conventions documented there).
 #ifndef BRDF_GLSL
@@ -10,6 +10,7 @@
 #define BRDF_CT_BECKMANN 1
 #define BRDF_CT_GGX 2
 #define BRDF_ASHIKHMIN_SHIRLEY 3
+#define BRDF_LAFORTUNE 4
 #define BRDF_MAX_LOBES 7
 const float BRDF_MIN_NDV = 1e-3;
 
@@ -75,6 +76,30 @@ vec3 brdf_tangent(Material m, vec3 n) {
     return t;
 }
 
+// max(x, 0)^e as exp(e ln x) (twin: pow_pos).
+float brdf_pow_pos(float x, float e) {
+    return x > 0.0 ? exp(e * log(x)) : 0.0;
+}
+
+// The Lafortune lobe seen from v: axis d = M v/|M v| (M = diag(C) in the frame (t, n × t, n)) and
+// the peak factor g^e, g = |M v| (0 with d = n where M v = 0). Twin: lafortune_lobe.
+vec3 brdf_lafortune_lobe(Material m, vec3 n, vec3 t, vec3 v, out float peak) {
+    vec3 b = cross(n, t);
+    vec3 mv = m.brdf.x * dot(v, t) * t + m.brdf.y * dot(v, b) * b + m.brdf.z * dot(v, n) * n;
+    float g = length(mv);
+    if (g <= 1e-12) {
+        peak = 0.0;
+        return n;
+    }
+    peak = exp(m.brdf.w * log(g));
+    return mv / g;
+}
+
+// The Lafortune normalization (e+2)/(2π) (twin: lafortune_norm).
+float brdf_lafortune_norm(float e) {
+    return (e + 2.0) / (2.0 * PI);
+}
+
 // Exact specular f_s(l, v) without the cosine (twin: specular_brdf).
 vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
     float nl = dot(n, l);
@@ -99,6 +124,11 @@ vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
         float g = brdf_smith_g1(ggx, alpha, nv) * brdf_smith_g1(ggx, alpha, nl);
         return brdf_schlick(ks, vh) * (d * g / (4.0 * nl * nv));
     }
+    if (kind == BRDF_LAFORTUNE) {
+        float peak;
+        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
+        return ks * (brdf_lafortune_norm(m.brdf.w) * peak * brdf_pow_pos(dot(d, l), m.brdf.w));
+    }
     if (vh <= 0.0) return vec3(0.0);
     vec3 b = cross(n, t);
     float p = brdf_as_power(m.brdf.x, m.brdf.y, dot(h, t), dot(h, b), nh);
@@ -110,8 +140,9 @@ vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
 // Blinn-Phong (s+1)/(2π)(n·h)^s; Cook-Torrance D(h)(n·h); Ashikhmin-Shirley √((n_u+1)(n_v+1))/(2π)(n·h)^{e}.
 float brdf_half_pdf(Material m, vec3 n, vec3 t, vec3 h) {
     float nh = dot(n, h);
-    if (nh <= 0.0) return 0.0;
     int kind = brdf_kind(m);
+    // Lafortune is sampled over directions (brdf_dir_pdf).
+    if (nh <= 0.0 || kind == BRDF_LAFORTUNE) return 0.0;
     if (kind == BRDF_BLINN_PHONG) {
         float s = m.shininess;
         return (s + 1.0) / (2.0 * PI) * pow(nh, s);
@@ -150,6 +181,39 @@ vec3 brdf_sample_half(Material m, vec3 n, vec3 t, float u1, float u2) {
     return normalize(sin_h * cos(phi) * t + sin_h * sin(phi) * b + cos_h * n);
 }
 
+// Density over light directions of the specular sampling (twin: dir_pdf): brdf_half_pdf / (4 v·h)
+// for the half-vector models, (e+1)/(2π) max(d·l, 0)^e about the Lafortune axis d.
+float brdf_dir_pdf(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
+    if (brdf_kind(m) == BRDF_LAFORTUNE) {
+        float peak;
+        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
+        return (m.brdf.w + 1.0) / (2.0 * PI) * brdf_pow_pos(dot(d, l), m.brdf.w);
+    }
+    vec3 h = v + l;
+    float len = length(h);
+    if (len <= 0.0) return 0.0;
+    h /= len;
+    float vh = dot(v, h);
+    // Half-vector density / (4 v·h), the reflection's Jacobian.
+    if (dot(n, h) <= 0.0 || vh <= 0.0) return 0.0;
+    return brdf_half_pdf(m, n, t, h) / (4.0 * vh);
+}
+
+// A light direction distributed by brdf_dir_pdf, from two uniforms (may point below the surface).
+vec3 brdf_sample_dir(Material m, vec3 n, vec3 t, vec3 v, float u1, float u2) {
+    if (brdf_kind(m) == BRDF_LAFORTUNE) {
+        float peak;
+        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
+        float c = pow(1.0 - u1, 1.0 / (m.brdf.w + 1.0));
+        float s = sqrt(max(0.0, 1.0 - c * c));
+        float phi = 2.0 * PI * u2;
+        vec3 a, b;
+        orthonormal_basis(d, a, b);
+        return normalize(s * cos(phi) * a + s * sin(phi) * b + c * d);
+    }
+    return reflect(-v, brdf_sample_half(m, n, t, u1, u2));
+}
+
 // One specular lobe at a point: unit-amplitude SG (axis, λ) and the RGB weight of its integral.
 struct SpecLobe {
     vec3 axis;
@@ -183,6 +247,15 @@ int brdf_specular_lobes(Material m, vec3 n, vec3 v, out SpecLobe lobes[BRDF_MAX_
         return 1;
     }
     vec3 t = brdf_tangent(m, n);
+    if (kind == BRDF_LAFORTUNE) {
+        // One SG about the lobe axis with λ = e + 1 (the same peak and integral).
+        float peak;
+        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
+        lobes[0].axis = d;
+        lobes[0].lambda = m.brdf.w + 1.0;
+        lobes[0].weight = ks * (brdf_lafortune_norm(m.brdf.w) * peak * max(dot(n, d), 0.0));
+        return 1;
+    }
     vec3 b = cross(n, t);
     vec3 wide = m.lobes_along_b > 0.5 ? b : t;
     float nu = m.brdf.x, nvx = m.brdf.y;

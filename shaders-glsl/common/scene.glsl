@@ -18,14 +18,14 @@ struct Object {
     mat4 normal_matrix;
 };
 
-// brdf holds the parameters of the model `kind` names: Cook-Torrance (α, λ_h, μ, 0) or
-// Ashikhmin-Shirley (n_u, n_v, λ_h, δ), unused for Blinn-Phong; lobes = Ashikhmin-Shirley amplitudes
+// brdf holds the parameters of the model `kind` names: Cook-Torrance (α, λ_h, μ, 0),
+// Ashikhmin-Shirley (n_u, n_v, λ_h, δ) or Lafortune (C_x, C_y, C_z, e), unused for Blinn-Phong; lobes = Ashikhmin-Shirley amplitudes
 // μ_|k|, k = 0..3 (indexed by k). Twin: engine::passes::layout::GpuMaterial (filled from
 // engine::scene::Material).
 struct Material {
     vec3 diffuse;         // ρ_d
     float kind;           // BRDF kind: 0 Blinn-Phong, 1 Cook-Torrance Beckmann, 2 Cook-Torrance GGX,
-                          // 3 Ashikhmin-Shirley (exact small integers)
+                          // 3 Ashikhmin-Shirley, 4 Lafortune (exact small integers)
     vec3 specular;        // k_s (F0)
     float shininess;      // Blinn-Phong exponent s
     vec4 brdf;

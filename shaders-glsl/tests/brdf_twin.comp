@@ -4,7 +4,7 @@
 // Input, stride 29 floats per case: [0..20) the Material (the 20 floats of GpuMaterial, std430 order),
 //   [20..23) n, [23..26) v, [26..29) l (unit vectors).
 // Output, stride 56 floats per case:
-//   [0..3) brdf_specular(m, n, t, v, l)   [3] brdf_half_pdf(m, n, t, normalize(v + l))
+//   [0..3) brdf_specular(m, n, t, v, l)   [3] brdf_dir_pdf(m, n, t, v, l)
 //   [4..7) t = brdf_tangent(m, n)
 //   [7 + 7j ..) lobe j (j < 7; zeros past the count): axis (3), λ, weight (3)
 #include "../common/brdf.glsl"
@@ -48,8 +48,7 @@ void main() {
     data_out[o] = f.x;
     data_out[o + 1u] = f.y;
     data_out[o + 2u] = f.z;
-    vec3 hv = v + l;
-    data_out[o + 3u] = dot(hv, hv) > 0.0 ? brdf_half_pdf(m, n, t, normalize(hv)) : 0.0;
+    data_out[o + 3u] = brdf_dir_pdf(m, n, t, v, l);
     data_out[o + 4u] = t.x;
     data_out[o + 5u] = t.y;
     data_out[o + 6u] = t.z;

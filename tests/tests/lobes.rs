@@ -6,9 +6,10 @@
 
 use engine::blockers::bvh::GpuBvhNode;
 use engine::blockers::{BlockerPlane, Sphere};
+use engine::math::brdf::{self, HalfVectorFit};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
-use engine::passes::shade::lobes::cpu::{Twin, TwinBvh, TwinLight, TwinReceiver};
+use engine::passes::shade::lobes::cpu::{specular_lobe, Twin, TwinBvh, TwinLight, TwinReceiver};
 use engine::passes::shade::lobes::{Leaves, LobesOptions};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::{Scene, SphereLight};
@@ -110,9 +111,20 @@ fn compare(gpu: &engine::gpu::Gpu, scene: &Scene, spec: &str, o: &LobesOptions) 
     let mut errs = Vec::new();
     for (i, px) in g.iter().enumerate().step_by(2) {
         let Some((p, n, m)) = *px else { continue };
-        let r = TwinReceiver { p, n, view: (eye - p).normalize(), rho: [ALBEDO[m]; 3], phong: None };
+        let view = (eye - p).normalize();
+        // The material's specular term (none in the diffuse scenes): its cosine lobe for the lights,
+        // and its SG lobes against the constant environment times the diffuse visibility.
+        let mat = &scene.materials[m];
+        let (model, ks) = (mat.specular_model(), mat.specular.as_dvec3().to_array());
+        let t = DVec3::from_array(brdf::tangent_from_direction(n.to_array(), mat.tangent.as_dvec3().to_array()));
+        let specular = specular_lobe(&model, ks, n, t, view);
+        let r = TwinReceiver { p, n, view, rho: [ALBEDO[m]; 3], specular };
         let v = twin.env_visibility(p, n, world, &scene.blockers.planes);
         let mut want = [ALBEDO[m] * ENV as f64 * v; 3];
+        let lobes =
+            brdf::specular_lobes(&model, &HalfVectorFit::new(&model), ks, n.to_array(), t.to_array(), view.to_array());
+        let glossy = brdf::specular_sum_constant_env(&lobes, [ENV as f64; 3]);
+        (0..3).for_each(|c| want[c] += v * glossy[c]);
         let mut scale = ALBEDO[m] * ENV as f64;
         for l in &lights {
             let t = twin.light_terms(&r, l, world, &scene.blockers.planes);
@@ -167,6 +179,33 @@ fn gpu_matches_the_f64_twin() {
     gpu.shutdown().expect("clean teardown");
 }
 
+/// The specular reflectance lobes (§5.1) on the GPU and the twin: a Lafortune ground (anisotropic,
+/// e = 60) and a Blinn-Phong ball (s = 100, its Phong lobe e = s/4), two lights, with and without
+/// planes: the lights through R × L × visibility products, the environment's glossy term as the SG
+/// lobes times the diffuse visibility.
+#[test]
+fn specular_lobes_match_the_f64_twin() {
+    let gpu = engine_tests::gpu();
+    let key = light([-0.6, 2.2, -0.5], 0.3, [12.0, 9.0, 6.0]);
+    let fill = light([0.9, 1.6, 0.4], 0.15, [20.0, 20.0, 24.0]);
+    let rect =
+        BlockerPlane::rectangle(DVec3::new(0.8, 1.0, 0.2), DVec3::new(0.25, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.2));
+    for planes in [vec![], vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect]] {
+        let mut s = scene(vec![key, fill], planes.clone());
+        s.materials[0].apply_brdf_spec("lafortune:cx=-1,cy=-0.85,cz=1,e=60,ks=0.5,tangent=1/0/0").unwrap();
+        s.materials[1].apply_brdf_spec("blinn-phong:s=100,ks=0.4").unwrap();
+        let errs = compare(&gpu, &s, "lobes", &LobesOptions::default());
+        check(
+            &errs,
+            "lobes",
+            if planes.is_empty() { "glossy, two lights" } else { "glossy, with a plane" },
+            2e-3,
+            0.05,
+        );
+    }
+    gpu.shutdown().expect("clean teardown");
+}
+
 /// Hard light placements on the GPU and the twin: a tiny light (e_cap ≈ 2e6, past the tables), a light
 /// inside the blocker, a light below the ground (behind the plane receivers' tangent plane), a huge
 /// light close over the ground (α → π/2); with a plane straddling the light cones. Finite, non-negative,
@@ -193,7 +232,7 @@ fn bvh(spheres: &[Sphere]) -> TwinBvh {
 }
 
 fn receiver(n: DVec3) -> TwinReceiver {
-    TwinReceiver { p: DVec3::ZERO, n, view: DVec3::Y, rho: [1.0; 3], phong: None }
+    TwinReceiver { p: DVec3::ZERO, n, view: DVec3::Y, rho: [1.0; 3], specular: None }
 }
 
 /// One light, no blockers: U is the analytic integral of (ρ/π cos) × the light's cap lobe.

@@ -1,7 +1,8 @@
 //! GPU (f32 GLSL, shaders-glsl/common/brdf.glsl) vs CPU (f64, engine_math::brdf) twins through
 //! shaders-glsl/tests/brdf_twin.comp (layout documented there): the exact specular BRDF, the
-//! half-vector sampling density, the tangent, and the SG lobes per point, for random materials of
-//! the three models (exponents up to 1e4, α down to 0.02) and random geometry including grazing
+//! sampling density over light directions, the tangent, and the SG lobes per point, for random
+//! materials of the four models (exponents up to 1e4, α down to 0.02; Lafortune with random C, Phong
+//! among them) and random geometry including grazing
 //! views. The CPU twin sees exactly the f32 inputs (the material as uploaded).
 //!
 //! Tolerances: the BRDFs are exp of an argument E up to the model's sharpness (s, n_u, n_v or
@@ -40,15 +41,25 @@ fn random_material(rng: &mut Pcg32, c: usize) -> (Material, f64) {
     m.specular = ks;
     let tangent = f32v(rng.unit_vector());
     m.tangent = Vec3::from_array(tangent);
-    let sharp = match c % 4 {
+    let sharp = match c % 5 {
         0 => {
             m.shininess = log_uniform(rng, 1.0, 1e4) as f32;
             m.shininess as f64
         }
         1 | 2 => {
             let alpha = log_uniform(rng, 0.02, 1.0) as f32;
-            m.brdf = Brdf::CookTorrance { ndf: if c % 4 == 1 { Ndf::Beckmann } else { Ndf::Ggx }, roughness: alpha };
+            m.brdf = Brdf::CookTorrance { ndf: if c % 5 == 1 { Ndf::Beckmann } else { Ndf::Ggx }, roughness: alpha };
             1.0 / (alpha as f64 * alpha as f64)
+        }
+        4 => {
+            let e = log_uniform(rng, 1.0, 1e4) as f32;
+            let c = if c % 10 == 4 {
+                engine::scene::PHONG_C
+            } else {
+                [-rng.uniform(0.3, 1.0) as f32, -rng.uniform(0.3, 1.0) as f32, rng.uniform(-1.0, 1.0) as f32]
+            };
+            m.brdf = Brdf::Lafortune { c, e };
+            e as f64
         }
         _ => {
             let (nu, nv) = (log_uniform(rng, 1.0, 1e4) as f32, log_uniform(rng, 1.0, 1e4) as f32);
@@ -71,7 +82,7 @@ fn cases() -> Vec<Case> {
         let mut fit = HalfVectorFit::new(&model);
         // The GPU reads the fit as f32.
         match model {
-            SpecularModel::BlinnPhong { .. } => {}
+            SpecularModel::BlinnPhong { .. } | SpecularModel::Lafortune { .. } => {}
             SpecularModel::CookTorrance { .. } => {
                 fit.lambda_h = material.brdf[1] as f64;
                 fit.mu[0] = material.brdf[2] as f64;
@@ -145,8 +156,8 @@ fn brdf_glsl_matches_f64_twin() {
             for k in 0..3 {
                 ck.check("f_s", i, o[k], f[k], rel * f[k].abs() + 1e-6 * scale + 1e-30);
             }
-            let p = brdf::half_pdf(&c.model, n, t, h);
-            ck.check("half pdf", i, o[3], p, rel * p + 1e-30);
+            let p = brdf::dir_pdf(&c.model, n, t, v, l);
+            ck.check("dir pdf", i, o[3], p, rel * p + 1e-30);
             compared[0] += 1;
         }
         let lobes = brdf::specular_lobes(&c.model, &c.fit, ks, n, t, v);
@@ -166,7 +177,10 @@ fn brdf_glsl_matches_f64_twin() {
                 let small = nl.abs().min(vh.abs()).min(dot(n, v).max(1e-3));
                 for k in 0..3 {
                     let w = lobe.weight[k];
-                    let tol = (1e-4 + 16.0 * EPS / small) * w.abs() + 1e-5 * wmax + 1e-30;
+                    // Lafortune's weight holds g^e = exp(e ln g): f32 rounds it like the BRDF.
+                    let lafortune = matches!(c.model, SpecularModel::Lafortune { .. });
+                    let sharp = if lafortune { rel } else { 0.0 };
+                    let tol = (1e-4 + 16.0 * EPS / small + sharp) * w.abs() + 1e-5 * wmax + 1e-30;
                     ck.check("lobe weight", i, q[4 + k], w, tol);
                 }
                 compared[1] += 1;

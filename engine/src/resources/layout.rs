@@ -23,7 +23,8 @@ pub struct GpuObject {
 }
 
 /// `struct Material` (see scene.glsl). `brdf` holds the parameters of the model `kind` names:
-/// Cook-Torrance (α, λ_h, μ, 0) or Ashikhmin–Shirley (n_u, n_v, λ_h, δ), zero for Blinn-Phong; `lobes`
+/// Cook-Torrance (α, λ_h, μ, 0), Ashikhmin–Shirley (n_u, n_v, λ_h, δ) or Lafortune (C_x, C_y, C_z, e),
+/// zero for Blinn-Phong; `lobes`
 /// = the Ashikhmin–Shirley amplitudes μ_{|k|}, k = 0..3 (indexed by k). The SG fits (λ_h, μ, δ) are
 /// computed here once per material (`engine::math::brdf::HalfVectorFit`).
 #[repr(C)]
@@ -50,6 +51,7 @@ pub const BRDF_BLINN_PHONG: f32 = 0.0;
 pub const BRDF_COOK_TORRANCE_BECKMANN: f32 = 1.0;
 pub const BRDF_COOK_TORRANCE_GGX: f32 = 2.0;
 pub const BRDF_ASHIKHMIN_SHIRLEY: f32 = 3.0;
+pub const BRDF_LAFORTUNE: f32 = 4.0;
 
 impl GpuMaterial {
     pub fn from_material(m: &crate::scene::Material) -> Self {
@@ -64,6 +66,7 @@ impl GpuMaterial {
             Brdf::AshikhminShirley { nu, nv } => {
                 (BRDF_ASHIKHMIN_SHIRLEY, [nu, nv, fit.lambda_h as f32, fit.delta as f32])
             }
+            Brdf::Lafortune { c, e } => (BRDF_LAFORTUNE, [c[0], c[1], c[2], e]),
         };
         let t = m.tangent;
         Self {

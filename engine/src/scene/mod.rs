@@ -69,7 +69,14 @@ pub enum Brdf {
     CookTorrance { ndf: Ndf, roughness: f32 },
     /// Ashikhmin–Shirley with exponents n_u, n_v.
     AshikhminShirley { nu: f32, nv: f32 },
+    /// One Lafortune lobe `k_s (e+2)/(2π) max(C_x l_t v_t + C_y l_b v_b + C_z l_n v_n, 0)^e` in the
+    /// frame of [`Material::tangent`] (|C_i| ≤ 1); C = (−1, −1, 1) is the modified Phong model
+    /// (`--brdf phong`). Cosine-lobes paper Eq. 24–30; `engine::math::brdf`.
+    Lafortune { c: [f32; 3], e: f32 },
 }
+
+/// Lafortune's C for the modified Phong model (the mirror direction).
+pub const PHONG_C: [f32; 3] = [-1.0, -1.0, 1.0];
 
 pub use engine_math::sg::Ndf;
 
@@ -100,13 +107,15 @@ impl Material {
             Brdf::BlinnPhong => M::BlinnPhong { s: self.shininess as f64 },
             Brdf::CookTorrance { ndf, roughness } => M::CookTorrance { ndf, alpha: roughness as f64 },
             Brdf::AshikhminShirley { nu, nv } => M::AshikhminShirley { nu: nu as f64, nv: nv as f64 },
+            Brdf::Lafortune { c, e } => M::Lafortune { c: c.map(|x| x as f64), e: e as f64 },
         }
     }
 
     /// Set the specular model from a spec `kind[:key=value,...]` (the `--brdf` option):
     /// `blinn-phong:s=1000,ks=0.5`, `cook-torrance:roughness=0.1,ndf=ggx,ks=0.5` (ndf `beckmann`
-    /// (default) or `ggx`), `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0`. Keys not given
-    /// keep the material's values (roughness 0.1, n_u = n_v = 100 when switching model). Every key
+    /// (default) or `ggx`), `ashikhmin-shirley:nu=1000,nv=100,ks=0.5,tangent=0/1/0`, `phong:e=100,ks=0.5`,
+    /// `lafortune:cx=-1,cy=-0.5,cz=0.9,e=50,ks=0.5,tangent=1/0/0`. Keys not given keep the material's
+    /// values (roughness 0.1, n_u = n_v = 100, Phong C and e = 100 when switching model). Every key
     /// is range-checked by the schemas of [`BRDF_MODELS`]; errors name the bad key.
     pub fn apply_brdf_spec(&mut self, spec: &str) -> std::result::Result<(), String> {
         use crate::options::Value;
@@ -125,6 +134,14 @@ impl Material {
             "ashikhmin-shirley" => match self.brdf {
                 b @ Brdf::AshikhminShirley { .. } => b,
                 _ => Brdf::AshikhminShirley { nu: 100.0, nv: 100.0 },
+            },
+            "phong" => match self.brdf {
+                Brdf::Lafortune { e, .. } => Brdf::Lafortune { c: PHONG_C, e },
+                _ => Brdf::Lafortune { c: PHONG_C, e: 100.0 },
+            },
+            "lafortune" => match self.brdf {
+                b @ Brdf::Lafortune { .. } => b,
+                _ => Brdf::Lafortune { c: PHONG_C, e: 100.0 },
             },
             _ => Brdf::BlinnPhong,
         };
@@ -153,6 +170,19 @@ impl Material {
                 }
                 if let Some(x) = num("nv") {
                     *nv = x;
+                }
+                if let Some(Value::Direction(d)) = o.get("tangent") {
+                    m.tangent = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize();
+                }
+            }
+            Brdf::Lafortune { c, e } => {
+                for (k, key) in ["cx", "cy", "cz"].iter().enumerate() {
+                    if let Some(x) = num(key) {
+                        c[k] = x;
+                    }
+                }
+                if let Some(x) = num("e") {
+                    *e = x;
                 }
                 if let Some(Value::Direction(d)) = o.get("tangent") {
                     m.tangent = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize();
@@ -222,16 +252,39 @@ pub const BRDF_MODELS: &[(&str, &str, &[OptionSpec])] = &[
             KD,
             OptionSpec { key: "nu", aliases: &[], kind: Kind::closed(1e-3, 1e6), default: None, help: "exponent n_u" },
             OptionSpec { key: "nv", aliases: &[], kind: Kind::closed(1e-3, 1e6), default: None, help: "exponent n_v" },
+            TANGENT,
+        ],
+    ),
+    ("phong", "modified Phong, k_s (e+2)/(2π) max(r·l, 0)^e (Lafortune with C = (−1, −1, 1))", &[KS, KD, EXPONENT]),
+    (
+        "lafortune",
+        "one Lafortune lobe k_s (e+2)/(2π) max(C_x l_t v_t + C_y l_b v_b + C_z l_n v_n, 0)^e",
+        &[
+            KS,
+            KD,
+            EXPONENT,
+            OptionSpec { key: "cx", aliases: &[], kind: Kind::closed(-1.0, 1.0), default: None, help: "C_x (along t)" },
             OptionSpec {
-                key: "tangent",
+                key: "cy",
                 aliases: &[],
-                kind: Kind::Direction,
+                kind: Kind::closed(-1.0, 1.0),
                 default: None,
-                help: "anisotropy direction (world space), projected on the tangent plane",
+                help: "C_y (along n × t)",
             },
+            OptionSpec { key: "cz", aliases: &[], kind: Kind::closed(-1.0, 1.0), default: None, help: "C_z (along n)" },
+            TANGENT,
         ],
     ),
 ];
+const TANGENT: OptionSpec = OptionSpec {
+    key: "tangent",
+    aliases: &[],
+    kind: Kind::Direction,
+    default: None,
+    help: "anisotropy direction (world space), projected on the tangent plane",
+};
+const EXPONENT: OptionSpec =
+    OptionSpec { key: "e", aliases: &[], kind: Kind::closed(1e-3, 1e6), default: None, help: "lobe exponent e" };
 
 /// `--help` text of the `--brdf` models and their keys.
 pub fn brdf_help() -> String {
@@ -324,6 +377,12 @@ mod tests {
         m.apply_brdf_spec("ashikhmin-shirley:nu=1000,nv=100,ks=0.25,tangent=1/0/0").unwrap();
         assert_eq!(m.brdf, Brdf::AshikhminShirley { nu: 1000.0, nv: 100.0 });
         assert_eq!((m.specular, m.tangent), (Vec3::splat(0.25), Vec3::X));
+        m.apply_brdf_spec("phong:e=50").unwrap();
+        assert_eq!(m.brdf, Brdf::Lafortune { c: PHONG_C, e: 50.0 });
+        m.apply_brdf_spec("lafortune:cx=-0.9,cz=0.5").unwrap();
+        assert_eq!(m.brdf, Brdf::Lafortune { c: [-0.9, -1.0, 0.5], e: 50.0 }, "keys not given are kept");
+        m.apply_brdf_spec("phong").unwrap();
+        assert_eq!(m.brdf, Brdf::Lafortune { c: PHONG_C, e: 50.0 }, "phong resets C, keeps e");
         for (bad, key) in [
             ("cook-torrance:roughness=2", "roughness"),
             ("cook-torrance:s=10", "s"),
@@ -331,8 +390,11 @@ mod tests {
             ("ashikhmin-shirley:tangent=0/0/0", "tangent"),
             ("blinn-phong:ks=-1", "ks"),
             ("cook-torrance:ndf=phong", "ndf"),
-            ("phong", "phong"),
+            ("lambert", "lambert"),
             ("blinn-phong:s", "s"),
+            ("lafortune:cx=1.5", "cx"),
+            ("phong:e=0", "e"),
+            ("phong:cx=1", "cx"),
         ] {
             let before = m;
             let e = m.apply_brdf_spec(bad).unwrap_err();

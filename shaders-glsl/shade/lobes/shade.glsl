@@ -139,6 +139,33 @@ Lobe lobes_mul(Lobe c1, Lobe c2) {
 }
 
 // ∫_{n·v > 0} c dω from the hemisphere table (twin of HemisphereTable::hemisphere_integral).
+// The specular term as one cosine lobe (§5.1): Blinn-Phong as the Phong lobe about the mirror
+// direction (e = s/4, scale k_s (s+8)/(8π)); Lafortune (Phong among them) exactly, about
+// d = M v/|M v| with scale k_s (e+2)/(2π) |M v|^e (Eq. 30). False for the other models and k_s = 0.
+// Twin: lobes::cpu::specular_lobe.
+bool lobes_specular_lobe(Material m, vec3 n, vec3 view, out Lobe spec) {
+    spec.axis = n;
+    spec.e = 1.0;
+    spec.s = vec3(0.0);
+    if (!brdf_has_specular(m)) return false;
+    int kind = brdf_kind(m);
+    if (kind == BRDF_BLINN_PHONG) {
+        float s = m.shininess;
+        spec.axis = reflect(-view, n);
+        spec.e = 0.25 * s;
+        spec.s = m.specular.rgb * (s + 8.0) / (8.0 * PI);
+        return true;
+    }
+    if (kind == BRDF_LAFORTUNE) {
+        float peak;
+        spec.axis = brdf_lafortune_lobe(m, n, brdf_tangent(m, n), view, peak);
+        spec.e = m.brdf.w;
+        spec.s = m.specular.rgb * (brdf_lafortune_norm(m.brdf.w) * peak);
+        return true;
+    }
+    return false;
+}
+
 vec3 lobes_hemisphere_integral(Lobe c, vec3 n) {
     float cb = clamp(dot(c.axis, n), -1.0, 1.0);
     int e0, e1, y0, y1;
@@ -482,13 +509,9 @@ vec3 shade_point(ShadePoint sp) {
         r[0].axis = n;
         r[0].e = 1.0;
         r[0].s = rho / PI;
-        bool phong = brdf_kind(sp.material) == BRDF_BLINN_PHONG && brdf_has_specular(sp.material);
+        Lobe spec;
+        bool phong = lobes_specular_lobe(sp.material, n, sp.view, spec);
         if (phong) {
-            float s = sp.material.shininess;
-            Lobe spec;
-            spec.axis = reflect(-sp.view, n);
-            spec.e = 0.25 * s;
-            spec.s = sp.material.specular.rgb * (s + 8.0) / (8.0 * PI);
             Lobe cosine;
             cosine.axis = n;
             cosine.e = 1.0;

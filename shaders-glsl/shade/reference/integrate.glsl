@@ -82,16 +82,7 @@ float specular_choice(Material m) {
 float brdf_pdf(Material m, float p_spec, vec3 n, vec3 v, vec3 l) {
     float nl = dot(n, l);
     float pdf = (1.0 - p_spec) * max(nl, 0.0) / PI;
-    if (p_spec > 0.0) {
-        vec3 h = v + l;
-        float len = length(h);
-        if (len > 0.0) {
-            h /= len;
-            float vh = dot(v, h);
-            // Half-vector density (brdf_half_pdf) / (4 v·h), the reflection's Jacobian.
-            if (dot(n, h) > 0.0 && vh > 0.0) pdf += p_spec * brdf_half_pdf(m, n, brdf_tangent(m, n), h) / (4.0 * vh);
-        }
-    }
+    if (p_spec > 0.0) pdf += p_spec * brdf_dir_pdf(m, n, brdf_tangent(m, n), v, l);
     return pdf;
 }
 
@@ -100,10 +91,7 @@ vec3 sample_brdf(Material m, float p_spec, vec3 n, vec3 v, inout uint rng) {
     float xi = rand(rng);
     float u1 = rand(rng);
     float u2 = rand(rng);
-    if (xi < p_spec) {
-        vec3 h = brdf_sample_half(m, n, brdf_tangent(m, n), u1, u2);
-        return reflect(-v, h);
-    }
+    if (xi < p_spec) return brdf_sample_dir(m, n, brdf_tangent(m, n), v, u1, u2);
     return local_to_world(n, sqrt(1.0 - u1), 2.0 * PI * u2);  // cosine-weighted
 }
 

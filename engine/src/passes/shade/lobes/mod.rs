@@ -2,7 +2,8 @@
 //! 2009), per pixel and per vertex. The shader's header states the algorithm step by step; in short:
 //!
 //! - reflectance `f_r · cos` as lobes (§5.1): Lambert = the cosine lobe (n, ρ/π, e = 1); a
-//!   Blinn-Phong specular as the Phong lobe about the mirror direction (e = s/4) times the cosine
+//!   Blinn-Phong specular as the Phong lobe about the mirror direction (e = s/4), Lafortune (Phong
+//!   among them) as its own lobe about M v (Eq. 30), either times the cosine
 //!   lobe. Other specular kinds: the exact SG light term times the light's lobe visibility.
 //! - each spherical light as one cap lobe (§5.2, e_cap from the cap table); R × L first (§5.4), then
 //!   the visibility lobes, every product from the product table, integrated over the hemisphere of
