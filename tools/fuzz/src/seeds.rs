@@ -148,7 +148,7 @@ pub fn hdr() -> Vec<Vec<u8>> {
 /// Scene descriptions: the two shipped examples.
 pub fn scene() -> Vec<Vec<u8>> {
     let examples = assets().join("../examples");
-    ["arm.toml", "still_life.toml"].iter().filter_map(|n| read(examples.join(n))).collect()
+    ["arm.toml", "still_life.toml", "glossy_light.toml"].iter().filter_map(|n| read(examples.join(n))).collect()
 }
 
 pub fn spheres() -> Vec<Vec<u8>> {
