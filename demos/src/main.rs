@@ -424,8 +424,12 @@ fn render_frames(
         progress.frame_done(f + 1, samples.filter(|_| schedule.is_some()).map(|n| (n, total_spp)));
     }
     let after_last = gpu.memory_stats();
-    for w in renderer.technique_warnings(gpu)? {
+    let report = renderer.technique_report(gpu)?;
+    for w in report.warnings {
         eprintln!("warning: {w}");
+    }
+    for c in report.counts {
+        eprintln!("{c}");
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let (w, h) = (renderer.settings.width, renderer.settings.height);

@@ -47,8 +47,12 @@ pub fn measure_technique(gpu: &Gpu, scene: &Scene, settings: RenderSettings, fra
             shade.push(t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum::<f64>());
             total.push(t.iter().map(|p| p.ms).sum::<f64>());
         }
-        for w in r.technique_warnings(gpu)? {
+        let report = r.technique_report(gpu)?;
+        for w in report.warnings {
             eprintln!("warning: {spec}: {w}");
+        }
+        for c in report.counts {
+            eprintln!("{spec}: {c}");
         }
         Ok((r.read_radiance(gpu)?, r.read_ldr(gpu)?))
     })();

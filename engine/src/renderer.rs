@@ -360,6 +360,11 @@ impl Renderer {
         self.technique.warnings(gpu)
     }
 
+    /// The technique's warnings and work counts since the last call ([`Technique::report`]).
+    pub fn technique_report(&mut self, gpu: &Gpu) -> Result<crate::passes::shade::TechniqueReport> {
+        self.technique.report(gpu)
+    }
+
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
         self.render_to(gpu, None)

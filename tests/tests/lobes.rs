@@ -328,7 +328,8 @@ fn twin_hard_cases_are_sane() {
 // Overflow is counted and reported, never silent: on `chess` (308 spheres) with the leaves-only gather
 // (`take_whole=0`) most receivers see more than MAX_BLOCKERS blockers in the environment mask's cone and the
 // technique says so; on `lamp-one` (the bunny's 64 spheres) at the defaults none does; a second call without a
-// frame in between reports nothing (the counters restart).
+// frame in between reports nothing (the counters restart). The work line (products, leaves) counts the frame's
+// receivers.
 #[test]
 fn blocker_overflow_is_reported() {
     let gpu = engine_tests::gpu();
@@ -338,8 +339,14 @@ fn blocker_overflow_is_reported() {
         let settings = RenderSettings { width: 32, height: 24, technique: spec.into(), ..Default::default() };
         let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
         r.render(&gpu).expect("frame");
-        let first = r.technique_warnings(&gpu).expect("warnings");
+        let report = r.technique_report(&gpu).expect("report");
+        let first = report.warnings;
         let second = r.technique_warnings(&gpu).expect("warnings");
+        // The work line counts this frame's receivers (32 × 24 at most), then restarts.
+        assert_eq!(report.counts.len(), 1, "{name}: {:?}", report.counts);
+        let receivers: u64 = report.counts[0].rsplit('(').next().unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(receivers > 100 && receivers <= 32 * 24, "{name}: {}", report.counts[0]);
+        assert!(r.technique_report(&gpu).expect("report").counts.is_empty(), "{name}: work counters not reset");
         r.destroy(&gpu);
         eprintln!("{name} {spec}: {first:?}");
         assert!(second.is_empty(), "{name}: counters not reset: {second:?}");

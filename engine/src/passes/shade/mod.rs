@@ -202,10 +202,24 @@ pub trait Technique {
     fn warnings(&mut self, _gpu: &Gpu) -> Result<Vec<String>> {
         Ok(Vec::new())
     }
+    /// [`Technique::warnings`] and the technique's work counts since the last call (e.g. `lobes`' products per
+    /// receiver), as lines for the user. Default: the warnings, no counts.
+    fn report(&mut self, gpu: &Gpu) -> Result<TechniqueReport> {
+        Ok(TechniqueReport { warnings: self.warnings(gpu)?, counts: Vec::new() })
+    }
     /// Technique-specific controls (e.g. the reference's sample counts), reached by downcasting.
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None
     }
+}
+
+/// What a technique says about the frames since it was last asked ([`Technique::report`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TechniqueReport {
+    /// What it dropped or clamped beyond its model.
+    pub warnings: Vec<String>,
+    /// Its work counts.
+    pub counts: Vec<String>,
 }
 
 /// The two pipelines of a technique: `shade/<name>/pixel.comp` and `shade/<name>/vertex.comp`.

@@ -258,7 +258,7 @@ pub struct LobesStats {
     pub overflowed: u64,
     /// Lobe products computed.
     pub products: u64,
-    /// Visibility products pruned by the threshold t_i.
+    /// Visibility products below the threshold t_i (computed, then dropped; part of `products`).
     pub pruned: u64,
     /// Shadow leaves (visibility lobes) of all masks.
     pub leaves: u64,
@@ -266,6 +266,25 @@ pub struct LobesStats {
     pub env_overflowed: u64,
     /// Receivers where some light's mask overflowed (part of `overflowed`).
     pub light_overflowed: u64,
+}
+
+/// The work per shaded receiver (none before any receiver was shaded): lobe products computed (each
+/// integrated over the hemisphere), of which visibility products below t_i × U (dropped from S: their
+/// environment lookup and sum are skipped, their product and integral are not: the visibility product is
+/// the last of the chain, so nothing later is saved; cf. paper Fig. 16), and shadow leaves.
+pub fn work_line(s: &LobesStats) -> Option<String> {
+    (s.receivers > 0).then(|| {
+        let per = |x: u64| x as f64 / s.receivers as f64;
+        format!(
+            "lobes: per shaded receiver {:.1} lobe products, {:.1} of them below t_i and dropped ({:.1} %), {:.1} \
+             shadow leaves ({} receivers)",
+            per(s.products),
+            per(s.pruned),
+            if s.products > 0 { 100.0 * s.pruned as f64 / s.products as f64 } else { 0.0 },
+            per(s.leaves),
+            s.receivers
+        )
+    })
 }
 
 /// The user's line for overflowed receivers (none when nothing overflowed).
@@ -344,9 +363,17 @@ impl Technique for Lobes {
 
     /// Receivers whose blocker list overflowed since the last call (then the counters restart).
     fn warnings(&mut self, gpu: &Gpu) -> Result<Vec<String>> {
+        Ok(self.report(gpu)?.warnings)
+    }
+
+    /// The overflow warning and the work per receiver since the last call (then the counters restart).
+    fn report(&mut self, gpu: &Gpu) -> Result<super::TechniqueReport> {
         let s = self.stats(gpu)?;
         self.reset_stats(gpu)?;
-        Ok(overflow_warning(&s).into_iter().collect())
+        Ok(super::TechniqueReport {
+            warnings: overflow_warning(&s).into_iter().collect(),
+            counts: work_line(&s).into_iter().collect(),
+        })
     }
 
     fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()> {
