@@ -57,6 +57,22 @@ pub fn apply_brdf(scene: &mut Scene, spec: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--env-spin`: turn the renderer's environment to `deg_per_s` × `t` degrees (modulo 360) from where the scene put
+/// it, unless it is there already (`Renderer::set_environment_rotation`: the maps are rebuilt and the technique
+/// prepared again).
+pub fn spin_environment(
+    gpu: &engine::gpu::Gpu,
+    renderer: &mut engine::renderer::Renderer,
+    deg_per_s: f32,
+    t: f32,
+) -> engine::gpu::Result<()> {
+    let degrees = (deg_per_s * t).rem_euclid(360.0);
+    if degrees != renderer.environment_rotation() {
+        renderer.set_environment_rotation(gpu, degrees)?;
+    }
+    Ok(())
+}
+
 /// The BRDFs the viewer's `B` key steps through after the scene's own: diffuse, highly specular,
 /// anisotropic, microfacet (ISG Fig. 7's range).
 pub const BRDF_PRESETS: &[(&str, &str)] = &[

@@ -53,6 +53,12 @@ struct Args {
     /// Rotate the environment about +y by DEG degrees (finite; the viewer's E key turns it further in 30° steps).
     #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = parse_rotation, allow_negative_numbers = true)]
     env_rotation: f32,
+    /// Turn the environment continuously about +y by DEG degrees per second of animation time (frame f at f/30 s,
+    /// on top of --env-rotation; the viewer follows its clock): the chess scene's rotating environment (ISG
+    /// Fig. 7). Each frame rebuilds the environment's maps and prepares the technique again (as the viewer's E
+    /// key: ~0.7 s at 32×24 on lavapipe), so it is an event per frame, not a shader rotation.
+    #[arg(long, value_name = "DEG", value_parser = parse_rotation, allow_negative_numbers = true)]
+    env_spin: Option<f32>,
     /// Exposure multiplier before tone mapping (a number in (0, 1e6]).
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure, allow_negative_numbers = true)]
     exposure: f32,
@@ -257,6 +263,16 @@ fn run() -> anyhow::Result<()> {
             demos::scenes::animated_names()
         );
     }
+    if args.env_spin.is_some() && (args.spp.is_some() || args.capture.is_some()) {
+        anyhow::bail!(
+            "--env-spin with {}: every turn of the environment restarts the technique's preparation; drop one of them",
+            if args.spp.is_some() {
+                "--spp (the reference would restart its samples every frame)"
+            } else {
+                "--capture"
+            }
+        );
+    }
     if animation.is_some() && args.spp.is_some() {
         // Every frame is a new pose and the reference restarts its accumulation at each one.
         anyhow::bail!("--spp with --animate: the reference restarts its samples at every new pose; drop one of them");
@@ -352,6 +368,7 @@ fn drive(
                 exit_after: args.exit_after.unwrap_or(0),
                 animation,
                 brdf: demos::BrdfCycle::new(scene),
+                env_spin: args.env_spin,
             },
         ),
         None => match args.capture {
@@ -405,6 +422,9 @@ fn render_frames(
     for f in 0..frames {
         if let Some(a) = animation {
             a.apply(renderer, f as f32 / 30.0)?;
+        }
+        if let Some(spin) = args.env_spin {
+            demos::spin_environment(gpu, renderer, spin, f as f32 / 30.0)?;
         }
         if let (Some(s), Some(r)) = (schedule, engine::converge::reference_mut(renderer)) {
             r.set_samples_per_frame(s[f as usize])?;

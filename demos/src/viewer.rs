@@ -33,6 +33,8 @@ pub struct ViewerOptions {
     /// The `B` key's BRDF cycle over the scene's glossy materials ([`crate::BrdfCycle::new`] of the scene
     /// the renderer was built from).
     pub brdf: crate::BrdfCycle,
+    /// `--env-spin`: degrees per second of the viewer's clock the environment turns (rebuilt every frame).
+    pub env_spin: Option<f32>,
 }
 
 /// The event loop of a display, and the instance extensions its windows need. Create it before
@@ -180,6 +182,9 @@ impl App<'_> {
         }
         if let Some(a) = &self.options.animation {
             a.apply(self.renderer, self.clock.time(Instant::now()))?;
+        }
+        if let Some(spin) = self.options.env_spin {
+            crate::spin_environment(self.gpu, self.renderer, spin, self.clock.time(Instant::now()))?;
         }
         let timings = self.renderer.render_presenting(self.gpu, &image)?;
         window.pre_present_notify();
