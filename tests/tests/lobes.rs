@@ -1,7 +1,8 @@
 //! Technique `lobes` on lavapipe: the GPU pass against its f64 twin (engine::passes::shade::lobes::cpu)
 //! per receiver, with spherical lights, sphere and plane blockers and hard light placements; and the
 //! twin against closed forms: one light without blockers = the analytic lobe integral, a fully
-//! hidden light → 0, a half-covered light → the covered fraction; no NaN or inf anywhere. The BVH cut:
+//! hidden light → 0, a half-covered light → the covered fraction; no NaN or inf anywhere; the fitted light
+//! weights (no drift, GPU = twin). The BVH cut:
 //! far nodes taken whole (GPU = twin, little change against leaves only) and the coarsening retry.
 
 use engine::blockers::bvh::GpuBvhNode;
@@ -436,5 +437,26 @@ fn gpu_matches_the_twin_on_the_cut() {
         let errs = compare(&gpu, &s, spec, &o);
         check(&errs, spec, "216 small spheres", 2e-3, 0.05);
     }
+    gpu.shutdown().expect("clean teardown");
+}
+
+/// The fitted light leaf weights (`weights=fitted`, assets/tables/lobes_weights.txt) are what the fit gives
+/// today (`cargo xtask lobes-weights --check` does the same), they lower the calibration error, and the GPU
+/// applies them as the twin does (a plane under one sphere and one light: the calibration geometry).
+#[test]
+fn fitted_weights_have_not_drifted_and_the_gpu_applies_them() {
+    use engine::passes::shade::lobes::fit;
+    let stored = fit::load_table(&engine::tables::default_dir()).expect("table");
+    let (w, rows, uniform, fitted) = fit::fit_default().expect("fit");
+    eprintln!("{rows} receivers: unit weights {:.2} %, fitted {:.2} %, {w:?}", 100.0 * uniform, 100.0 * fitted);
+    for d in 0..w.len() {
+        assert!((w[d] - stored[d]).abs() < 1e-9, "depth {d}: stored {} vs fitted today {}", stored[d], w[d]);
+    }
+    assert!(fitted < 0.8 * uniform, "the fit should lower the calibration error: {fitted} vs {uniform}");
+    let gpu = engine_tests::gpu();
+    let key = light([-0.6, 2.2, -0.5], 0.3, [12.0, 9.0, 6.0]);
+    let o = LobesOptions { light_weights: stored, ..Default::default() };
+    let errs = compare(&gpu, &scene(vec![key], vec![]), "lobes:weights=fitted", &o);
+    check(&errs, "lobes:weights=fitted", "one sphere, one light", 2e-3, 0.05);
     gpu.shutdown().expect("clean teardown");
 }

@@ -62,6 +62,7 @@ struct LobesParams {
     float sharpen;        // the light lobes' exponent is e_cap times this
     float take_whole;     // BVH nodes below this many cells of the finest mask level are taken whole (0: leaves only)
     uint coarsen;         // on overflow, retries of the cut with take_whole doubled
+    float light_weights[8];  // per-depth factors of the light masks' leaf weights (0..6 used)
 };
 layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
@@ -398,7 +399,8 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         Lobe c;
         c.axis = centre;
         c.e = lobes_cap_exponent(gamma);
-        c.s = vec3(leaf_weight * lp.weight * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
+        float w_d = env ? 1.0 : lp.light_weights[d];
+        c.s = vec3(leaf_weight * lp.weight * w_d * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
         for (int k = 0; k < rl_count; ++k) {
             Lobe pr = lobes_mul(rl[k], c);
             products += 1u;

@@ -38,6 +38,7 @@ commands:
   setup              only install what is missing
   spheres MESH ...   fit a sphere set to a mesh (engine-blockers' `spheres` tool)
   tables [--check]   regenerate the binary math tables in assets/tables (or check them)
+  lobes-weights [--check]  fit the lobes light leaf weights into assets/tables/lobes_weights.txt (or check it)
   report [math|...]  measurement reports into out/report (see `cargo xtask report --help`)
   bench [bench args] per-pass GPU times of every scene × technique × rate into out/bench (`bench --help`)
   bench-package      the bench as a folder + .tar.gz for a machine without Rust (`bench-package --help`)
@@ -62,6 +63,11 @@ fn main() {
         "bless" => setup().and_then(|_| bless()),
         "spheres" => spheres(rest),
         "tables" => tables::run(rest),
+        "lobes-weights" => {
+            let mut c = cargo();
+            c.args(["run", "--release", "--quiet", "-p", "demos", "--bin", "lobes_weights", "--"]).args(rest);
+            run(c)
+        }
         "report" => setup().and_then(|_| report::run(rest)),
         "bench" => setup().and_then(|_| bench::bench(rest)),
         "bench-package" => setup().and_then(|_| bench::package(rest)),

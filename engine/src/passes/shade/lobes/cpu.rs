@@ -89,6 +89,9 @@ pub struct LightTerms {
     pub outside: bool,
     /// The whole mask was covered (S = U).
     pub hidden: bool,
+    /// S (green channel) by the depth of its leaves before the per-depth light weights (light masks
+    /// only): S = Σ_d w_d `s_by_depth[d]` when nothing is pruned (the weight fit's regressors).
+    pub s_by_depth: [f64; super::WEIGHT_DEPTHS],
 }
 
 impl LightTerms {
@@ -297,6 +300,7 @@ impl Twin {
             spheres,
             &[],
             false,
+            false,
             self.options.depth + 1,
         );
         if out.hidden {
@@ -346,7 +350,7 @@ impl Twin {
             return out;
         }
         let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
-        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true, o.depth);
+        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true, true, o.depth);
         out
     }
 
@@ -412,7 +416,8 @@ impl Twin {
     }
 
     /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
-    /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale).
+    /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale). A
+    /// `light` mask weighs its leaves by depth ([`LobesOptions::light_weights`]).
     #[allow(clippy::too_many_arguments)]
     pub fn mask(
         &self,
@@ -425,6 +430,7 @@ impl Twin {
         spheres: &TwinBvh,
         planes: &[BlockerPlane],
         with_planes: bool,
+        light: bool,
         depth: u32,
     ) {
         let o = &self.options;
@@ -516,7 +522,9 @@ impl Twin {
             out.leaves += 1;
             let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
             let e = self.cap.exponent(gamma);
-            let leaf = RgbLobe { axis: centre, e, s: [leaf_weight * o.weight * omega * (e + 1.0) / (2.0 * PI); 3] };
+            let w_d = if light { o.light_weights[d as usize] } else { 1.0 };
+            let unit = leaf_weight * o.weight * omega * (e + 1.0) / (2.0 * PI);
+            let leaf = RgbLobe { axis: centre, e, s: [unit * w_d; 3] };
             for c in rl {
                 let v = self.hemisphere_integral(&self.mul(c, &leaf), n);
                 out.products += 1;
@@ -525,6 +533,9 @@ impl Twin {
                     continue;
                 }
                 (0..3).for_each(|k| out.s[k] += v[k]);
+                if light && w_d > 0.0 {
+                    out.s_by_depth[d as usize] += v[1] / w_d;
+                }
             }
         }
     }

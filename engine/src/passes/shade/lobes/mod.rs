@@ -30,6 +30,7 @@ use crate::tables::MathTables;
 use engine_math::table_gen::MathTable;
 
 pub mod cpu;
+pub mod fit;
 
 /// Blockers kept per light and receiver (LOBES_MAX_BLOCKERS in shade.glsl).
 pub const MAX_BLOCKERS: usize = 64;
@@ -66,6 +67,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         kind: Kind::closed(0.0, 1.0),
         default: Some("0.0001"),
         help: "t_i (§4.3): visibility products whose integral is below t_i times the light's unshadowed integral are pruned",
+    },
+    OptionSpec {
+        key: "weights",
+        aliases: &[],
+        kind: Kind::Choice(&["uniform", "fitted"]),
+        default: Some("uniform"),
+        help: "light leaf weights by quad-tree depth: uniform (1) or fitted (assets/tables/lobes_weights.txt, `cargo xtask lobes-weights`: fitted at the default depth, split and leaves)",
     },
     OptionSpec {
         key: "weight",
@@ -135,7 +143,10 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
         one_plane: Some(0.03),
         samples: 0,
     },
-    create: |gpu, o| Ok(Box::new(Lobes::new(gpu, LobesOptions::from_options(o))?)),
+    create: |gpu, o| {
+        let options = LobesOptions::from_options(o).map_err(GpuError::Other)?;
+        Ok(Box::new(Lobes::new(gpu, options)?))
+    },
 };
 
 /// Partially covered cells at the maximal depth.
@@ -167,7 +178,13 @@ pub struct LobesOptions {
     pub take_whole: f64,
     /// Retries of an overflowing cut with `take_whole` doubled.
     pub coarsen: u32,
+    /// Factor of the light masks' leaf weights by the leaf's depth (index 0..=6; `weights=fitted`: the
+    /// fitted table `assets/tables/lobes_weights.json`, else all 1).
+    pub light_weights: [f64; WEIGHT_DEPTHS],
 }
+
+/// Depths of the per-depth light weights (0..=[`MAX_DEPTH`]).
+pub const WEIGHT_DEPTHS: usize = MAX_DEPTH as usize + 1;
 
 impl Default for LobesOptions {
     fn default() -> Self {
@@ -183,13 +200,19 @@ impl Default for LobesOptions {
             sharpen: 1.0,
             take_whole: 1.0,
             coarsen: 4,
+            light_weights: [1.0; WEIGHT_DEPTHS],
         }
     }
 }
 
 impl LobesOptions {
-    pub fn from_options(o: &Options) -> Self {
-        Self {
+    /// The options from the parsed spec; `weights=fitted` reads the fitted table (an error names the file).
+    pub fn from_options(o: &Options) -> std::result::Result<Self, String> {
+        let light_weights = match o.choice("weights") {
+            "fitted" => fit::load_table(&crate::tables::default_dir())?,
+            _ => [1.0; WEIGHT_DEPTHS],
+        };
+        Ok(Self {
             depth: o.int("depth") as u32,
             split: o.int("split") as u32,
             leaves: match o.choice("leaves") {
@@ -205,7 +228,8 @@ impl LobesOptions {
             sharpen: o.float("sharpen"),
             take_whole: o.float("take_whole"),
             coarsen: o.int("coarsen") as u32,
-        }
+            light_weights,
+        })
     }
 }
 
@@ -228,6 +252,8 @@ pub struct GpuLobesParams {
     pub take_whole: f32,
     /// Retries of an overflowing cut with `take_whole` doubled.
     pub coarsen: u32,
+    /// Per-depth factors of the light masks' leaf weights (7 used).
+    pub light_weights: [f32; 8],
 }
 
 /// The parameter block for `o`.
@@ -245,6 +271,7 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         sharpen: o.sharpen as f32,
         take_whole: o.take_whole as f32,
         coarsen: o.coarsen,
+        light_weights: std::array::from_fn(|d| o.light_weights.get(d).map_or(1.0, |&w| w as f32)),
     }
 }
 
