@@ -64,6 +64,15 @@ fn four_spheres(brdfs: &[&str], env: Option<LatLongMap>, kd: f32) -> Scene {
     }
 }
 
+/// A reference renderer of `scene` without occlusion (the BRDF and lighting alone), 64 samples per frame.
+fn unoccluded_reference(gpu: &engine::gpu::Gpu, scene: &Scene) -> Renderer {
+    let mut r = Renderer::new(gpu, scene, settings("reference")).expect("renderer");
+    let opts =
+        ReferenceOptions { visibility: Visibility::Unoccluded, samples_per_frame: 64, ..ReferenceOptions::default() };
+    converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+    r
+}
+
 fn settings(technique: &str) -> RenderSettings {
     RenderSettings { width: W, height: H, technique: technique.into(), ..Default::default() }
 }
@@ -106,13 +115,7 @@ fn none_matches_unshadowed_reference() {
         let scene = four_spheres(brdfs, None, 0.2);
         let (none, gb) = render_with_gbuffer(&gpu, &scene, settings("none"));
         assert_finite(&none, "none");
-        let mut r = Renderer::new(&gpu, &scene, settings("reference")).expect("renderer");
-        let opts = ReferenceOptions {
-            visibility: Visibility::Unoccluded,
-            samples_per_frame: 64,
-            ..ReferenceOptions::default()
-        };
-        converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+        let mut r = unoccluded_reference(&gpu, &scene);
         let (report, stats) = converge::converge(&gpu, &mut r, 2e-3, 4096).expect("converge");
         r.destroy(&gpu);
         assert_eq!(stats.nonfinite_samples, 0, "non-finite reference samples");
@@ -222,13 +225,7 @@ fn reference_is_unbiased_furnace() {
     let l = 1.25f32;
     for brdfs in GROUPS {
         let scene = four_spheres(brdfs, Some(LatLongMap::constant(64, 32, [l; 3])), 0.0);
-        let mut r = Renderer::new(&gpu, &scene, settings("reference")).expect("renderer");
-        let opts = ReferenceOptions {
-            visibility: Visibility::Unoccluded,
-            samples_per_frame: 64,
-            ..ReferenceOptions::default()
-        };
-        converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
+        let mut r = unoccluded_reference(&gpu, &scene);
         let (_, stats) = converge::converge(&gpu, &mut r, 2e-3, 2048).expect("converge");
         let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
         let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");

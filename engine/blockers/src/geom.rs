@@ -20,6 +20,14 @@ impl Sphere {
         Self { center, radius }
     }
 
+    /// Whether the ray o + t w (t > 0, w unit) meets the sphere (an origin inside it always does).
+    pub fn ray_hits(&self, o: DVec3, w: DVec3) -> bool {
+        let oc = o - self.center;
+        let b = oc.dot(w);
+        let disc = b * b - (oc.length_squared() - self.radius * self.radius);
+        disc >= 0.0 && -b + disc.sqrt() > 0.0
+    }
+
     /// `[cx, cy, cz, r]`, the file and GPU order.
     pub fn to_array(self) -> [f64; 4] {
         [self.center.x, self.center.y, self.center.z, self.radius]
@@ -402,6 +410,15 @@ pub fn blocker_for_receiver(p: DVec3, n: DVec3, s: &Sphere) -> Option<Sphere> {
 #[cfg(test)]
 mod receiver_rule_tests {
     use super::*;
+
+    #[test]
+    fn ray_hits_sphere() {
+        let s = Sphere::new(DVec3::new(0.0, 2.0, 0.0), 0.5);
+        assert!(s.ray_hits(DVec3::ZERO, DVec3::Y));
+        assert!(!s.ray_hits(DVec3::ZERO, -DVec3::Y), "behind the origin");
+        assert!(!s.ray_hits(DVec3::ZERO, DVec3::new(0.3, 1.0, 0.0).normalize()), "misses (0.29 rad > 0.25)");
+        assert!(s.ray_hits(DVec3::new(0.0, 2.0, 0.0), DVec3::X), "from inside");
+    }
 
     #[test]
     fn shexp_self_shadow_rules() {

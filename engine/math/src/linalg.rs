@@ -81,6 +81,41 @@ pub fn spectral_apply(vals: &[f64], vecs: &[f64], x: &[f64], f: impl Fn(f64) -> 
     out
 }
 
+/// x with A x = y by Gaussian elimination with partial pivoting (small dense systems, e.g. normal equations).
+#[allow(clippy::needless_range_loop)]
+pub fn solve<const N: usize>(mut a: [[f64; N]; N], mut y: [f64; N]) -> [f64; N] {
+    for c in 0..N {
+        let p = (c..N).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs())).unwrap_or(c);
+        a.swap(c, p);
+        y.swap(c, p);
+        for r in c + 1..N {
+            let f = a[r][c] / a[c][c];
+            for k in c..N {
+                a[r][k] -= f * a[c][k];
+            }
+            y[r] -= f * y[c];
+        }
+    }
+    let mut x = [0.0; N];
+    for r in (0..N).rev() {
+        let s: f64 = (r + 1..N).map(|k| a[r][k] * x[k]).sum();
+        x[r] = (y[r] - s) / a[r][r];
+    }
+    x
+}
+
+#[cfg(test)]
+mod solve_tests {
+    #[test]
+    fn solves_a_small_system() {
+        // Needs pivoting: a[0][0] = 0.
+        let a = [[0.0, 2.0, 1.0], [1.0, 1.0, 0.0], [2.0, 0.0, 3.0]];
+        let x = super::solve(a, [7.0, 3.0, 11.0]);
+        for (got, want) in x.iter().zip([1.0, 2.0, 3.0]) {
+            assert!((got - want).abs() < 1e-12, "{x:?}");
+        }
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;

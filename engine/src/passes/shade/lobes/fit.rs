@@ -53,21 +53,13 @@ pub fn exact_light(p: DVec3, s: &Setup, k: usize) -> f64 {
             let ph = 2.0 * PI * (j as f64 + 0.5) / np as f64;
             let w = a * c + (t * ph.cos() + b * ph.sin()) * sn;
             let cos_n = w.y;
-            if cos_n <= 0.0 || hits(p, w, &s.blocker) {
+            if cos_n <= 0.0 || s.blocker.ray_hits(p, w) {
                 continue;
             }
             sum += cos_n;
         }
     }
     sum * (1.0 - cos_max) * 2.0 * PI / (nc * np) as f64
-}
-
-fn hits(o: DVec3, w: DVec3, s: &Sphere) -> bool {
-    let oc = o - s.center;
-    let bq = oc.dot(w);
-    let c = oc.length_squared() - s.radius * s.radius;
-    let disc = bq * bq - c;
-    disc >= 0.0 && -bq + disc.sqrt() > 0.0
 }
 
 /// One receiver's row: the twin's U, its S by depth (unit weights), and the exact term.
@@ -138,30 +130,7 @@ pub fn fit(rows: &[Row], lambda: f64) -> [f64; WEIGHT_DEPTHS] {
         a[i][i] += reg;
         y[i] += reg;
     }
-    solve(a, y).map(|w| w.clamp(0.0, 4.0))
-}
-
-/// Gaussian elimination with partial pivoting (N = 7, symmetric positive definite after regularization).
-#[allow(clippy::needless_range_loop)]
-fn solve<const N: usize>(mut a: [[f64; N]; N], mut y: [f64; N]) -> [f64; N] {
-    for c in 0..N {
-        let p = (c..N).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs())).unwrap_or(c);
-        a.swap(c, p);
-        y.swap(c, p);
-        for r in c + 1..N {
-            let f = a[r][c] / a[c][c];
-            for k in c..N {
-                a[r][k] -= f * a[c][k];
-            }
-            y[r] -= f * y[c];
-        }
-    }
-    let mut x = [0.0; N];
-    for r in (0..N).rev() {
-        let s: f64 = (r + 1..N).map(|k| a[r][k] * x[k]).sum();
-        x[r] = (y[r] - s) / a[r][r];
-    }
-    x
+    engine_math::linalg::solve(a, y).map(|w| w.clamp(0.0, 4.0))
 }
 
 /// The fitted table: `assets/tables/lobes_weights.txt` (text, versioned; written by `cargo xtask lobes-weights`).
@@ -267,6 +236,12 @@ mod tests {
             let e = parse_table(bad).unwrap_err();
             assert!(e.contains(needle), "{bad:?}: {e}");
         }
+    }
+
+    #[test]
+    fn a_missing_table_names_the_file() {
+        let e = load_table(std::path::Path::new("/nonexistent/tables")).unwrap_err();
+        assert!(e.contains("/nonexistent/tables/lobes_weights.txt"), "{e}");
     }
 
     /// The least squares recover known weights from synthetic rows (exact = U − Σ w S).
