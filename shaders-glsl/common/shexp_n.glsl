@@ -156,6 +156,18 @@ void shn_add_circle_log(inout float f[SHN_C], float u, vec3 axis) {
     }
 }
 
+// The same scaled per band by a ratio vector W (SHEXP Eq. 38: f = W F(θ) y(s)), w_l = w[l].
+void shn_add_circle_log_weighted(inout float f[SHN_C], float u, vec3 axis, float w[8]) {
+    float fstar[SH_MAX_ORDER];
+    shn_circle_fstar(u, fstar);
+    float y[SH_MAX_COEFFS];
+    sh_eval(axis, SHEXP_N, y);
+    for (int l = 0; l < SHEXP_N; ++l) {
+        float a = w[l] * fstar[l];
+        for (int i = l * l; i < (l + 1) * (l + 1); ++i) f[i] += a * y[i];
+    }
+}
+
 // u = 1 − cos θ of a sphere blocker b seen from p (sin θ = r/d), without cancellation; 1 (the
 // half-space) when p is on or inside it, 0 for a zero radius.
 float shn_sphere_u(vec3 p, vec4 b) {

@@ -77,13 +77,31 @@ pub type Receiver = Option<(DVec3, DVec3, usize)>;
 
 /// Render `scene` once and read back the radiance and the G-buffer's receivers (per pixel).
 pub fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, Vec<Receiver>) {
+    let (hdr, g, _) = render_with_bvh(gpu, scene, settings);
+    (hdr, g)
+}
+
+/// The blocker BVH a frame's shaders read, read back: its first 2n − 1 nodes and the n world spheres.
+pub struct ReadBvh {
+    pub nodes: Vec<engine::blockers::bvh::GpuBvhNode>,
+    pub spheres: Vec<engine::blockers::Sphere>,
+}
+
+/// [`render_with_gbuffer`], and the blocker BVH the shaders read (so a twin cuts exactly the GPU's tree).
+pub fn render_with_bvh(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> (Vec<f32>, Vec<Receiver>, ReadBvh) {
     let pixels = (settings.width * settings.height) as usize;
     let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
     r.render(gpu).expect("frame");
     let hdr = r.read_radiance(gpu).expect("radiance");
     let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
     let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
+    let n = r.scene.blockers.sphere_count as usize;
+    let mut spheres = gpu.read_buffer::<[f32; 4]>(&r.scene.blockers.spheres).expect("spheres");
+    spheres.truncate(n);
+    let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
+    nodes.truncate((2 * n).saturating_sub(1));
     r.destroy(gpu);
+    let spheres = spheres.iter().map(|a| engine::blockers::Sphere::from_array(a.map(f64::from))).collect();
     let g = (0..pixels)
         .map(|i| {
             let (p, n) = (&pos[4 * i..4 * i + 4], &nrm[4 * i..4 * i + 4]);
@@ -93,7 +111,7 @@ pub fn render_with_gbuffer(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -
             })
         })
         .collect();
-    (hdr, g)
+    (hdr, g, ReadBvh { nodes, spheres })
 }
 
 /// RGB of pixel `i` of a linear RGBA32F image, as f64.

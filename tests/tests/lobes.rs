@@ -5,14 +5,13 @@
 //! weights (no drift, GPU = twin). The BVH cut:
 //! far nodes taken whole (GPU = twin, little change against leaves only) and the coarsening retry.
 
-use engine::blockers::bvh::GpuBvhNode;
 use engine::blockers::{BlockerPlane, Sphere};
 use engine::math::brdf::{self, HalfVectorFit};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
 use engine::passes::shade::lobes::cpu::{specular_lobe, Twin, TwinBvh, TwinLight, TwinReceiver};
 use engine::passes::shade::lobes::{Leaves, LobesOptions};
-use engine::renderer::{RenderSettings, Renderer};
+use engine::renderer::RenderSettings;
 use engine::scene::{Scene, SphereLight};
 use engine_tests::{assert_finite, rgb, Receiver};
 use glam::{DVec3, Vec3};
@@ -62,29 +61,8 @@ fn render_for_twin(
     scene: &Scene,
     settings: RenderSettings,
 ) -> (Vec<f32>, Vec<Receiver>, TwinBvh) {
-    let pixels = (settings.width * settings.height) as usize;
-    let mut r = Renderer::new(gpu, scene, settings).expect("renderer");
-    r.render(gpu).expect("frame");
-    let hdr = r.read_radiance(gpu).expect("radiance");
-    let pos = gpu.read_image_rgba32f(&r.gbuffer.position).expect("positions");
-    let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal).expect("normals");
-    let n = r.scene.blockers.sphere_count as usize;
-    let mut spheres = gpu.read_buffer::<[f32; 4]>(&r.scene.blockers.spheres).expect("spheres");
-    spheres.truncate(n);
-    let mut nodes = gpu.read_buffer::<GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
-    nodes.truncate((2 * n).saturating_sub(1));
-    r.destroy(gpu);
-    let g = (0..pixels)
-        .map(|i| {
-            let (p, n) = (&pos[4 * i..4 * i + 4], &nrm[4 * i..4 * i + 4]);
-            (p[3] >= 0.5).then(|| {
-                let p3 = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                (p3, DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).normalize(), (p[3] - 0.5) as usize)
-            })
-        })
-        .collect();
-    let world = spheres.iter().map(|a| Sphere::from_array(a.map(f64::from))).collect();
-    (hdr, g, TwinBvh::from_nodes(nodes, world))
+    let (hdr, g, bvh) = engine_tests::render_with_bvh(gpu, scene, settings);
+    (hdr, g, TwinBvh::from_nodes(bvh.nodes, bvh.spheres))
 }
 
 fn twin_lights(scene: &Scene) -> Vec<TwinLight> {

@@ -68,11 +68,11 @@ fn gpu_matches_the_f64_twin() {
     let gpu = engine_tests::gpu();
     let (scene, world) = scene_with(vec![Sphere::new(DVec3::ZERO, 1.0)]);
     for (spec, exp, order) in [
-        ("shexp:theta_max=0", ExpChoice::Hyb, 4),
-        ("shexp:theta_max=0,exp=ol", ExpChoice::Ol, 4),
-        ("shexp:theta_max=0,exp=ps,p=2", ExpChoice::PsStar, 4),
-        ("shexp:theta_max=0,order=3", ExpChoice::Hyb, 3),
-        ("shexp:theta_max=0,order=6", ExpChoice::Hyb, 6),
+        ("shexp:theta_max=0,cluster=0", ExpChoice::Hyb, 4),
+        ("shexp:theta_max=0,exp=ol,cluster=0", ExpChoice::Ol, 4),
+        ("shexp:theta_max=0,exp=ps,p=2,cluster=0", ExpChoice::PsStar, 4),
+        ("shexp:theta_max=0,order=3,cluster=0", ExpChoice::Hyb, 3),
+        ("shexp:theta_max=0,order=6,cluster=0", ExpChoice::Hyb, 6),
     ] {
         let o = ShexpOptions { order, exp, theta_max_deg: 0.0, ..ShexpOptions::default() };
         let (errs, _) = compare(&gpu, &scene, &world, spec, &o);
@@ -85,10 +85,10 @@ fn gpu_matches_the_f64_twin() {
     // accumulate=product (the product baseline): the ball's circle times the half-space's, in the same order
     // on both sides (truncated products are not associative: one sphere and one plane keep it exact).
     for (spec, order, large_product, accumulate_product) in [
-        ("shexp:theta_max=0", 4, true, false),
-        ("shexp:theta_max=0,order=6", 6, true, false),
-        ("shexp:theta_max=0,large=log", 4, false, false),
-        ("shexp:theta_max=0,accumulate=product", 4, true, true),
+        ("shexp:theta_max=0,cluster=0", 4, true, false),
+        ("shexp:theta_max=0,order=6,cluster=0", 6, true, false),
+        ("shexp:theta_max=0,large=log,cluster=0", 4, false, false),
+        ("shexp:theta_max=0,accumulate=product,cluster=0", 4, true, true),
     ] {
         let o =
             ShexpOptions { order, theta_max_deg: 0.0, large_product, accumulate_product, ..ShexpOptions::default() };
@@ -146,9 +146,13 @@ fn hard_blocker_sets_match_the_twin() {
         let (scene, world) = scene_with(local);
         // large=log: every sphere in the log (with large=product the GPU's BVH order and the twin's
         // list order would pick different spheres once more than four are large).
-        for (spec, exp) in
-            [("shexp:theta_max=0,large=log", ExpChoice::Hyb), ("shexp:theta_max=0,large=log,exp=ps", ExpChoice::PsStar)]
-        {
+        // The first two cut per receiver; the third takes the same leaves from 16×16-pixel clusters' cuts
+        // (θ_max = 0: every node is opened, W = 1).
+        for (spec, exp) in [
+            ("shexp:theta_max=0,large=log,cluster=0", ExpChoice::Hyb),
+            ("shexp:theta_max=0,large=log,exp=ps,cluster=0", ExpChoice::PsStar),
+            ("shexp:theta_max=0,large=log,cluster=16", ExpChoice::Hyb),
+        ] {
             let o = ShexpOptions { exp, theta_max_deg: 0.0, large_product: false, ..ShexpOptions::default() };
             let (errs, max_norm) = compare(&gpu, &scene, &world, spec, &o);
             eprintln!("{what}: largest ‖f̂‖ at a receiver {max_norm:.1}");
@@ -157,6 +161,90 @@ fn hard_blocker_sets_match_the_twin() {
             check(&errs, spec, what, 5e-5, 2e-4);
         }
     }
+    gpu.shutdown().expect("clean teardown");
+}
+
+// Receiver clusters (SHEXP §6.3): 4×4-pixel tiles, one θ_max cut per tile from its bounding sphere, ratio
+// vectors W at its central point. The GPU against the twin's cluster pass (same node array, read back) and
+// per-pixel accumulation; then W's effect: the clustered image with W is closer to the leaves-only one
+// (θ_max = 0, no node taken whole) than without W (nodes block as their bounding spheres).
+#[test]
+fn receiver_clusters_match_the_twin_and_ratio_vectors_help() {
+    let gpu = engine_tests::gpu();
+    // 27 small spheres filling the ball, so that the BVH has nodes to take whole seen from the ground.
+    let local: Vec<Sphere> = (0..27)
+        .map(|i| {
+            let (x, y, z) = ((i % 3) as f64 - 1.0, ((i / 3) % 3) as f64 - 1.0, (i / 9) as f64 - 1.0);
+            Sphere::new(DVec3::new(x, y, z) * 0.55, 0.38)
+        })
+        .collect();
+    let (scene, _) = scene_with(local);
+    const T: usize = 4;
+    let spec = format!("shexp:cluster={T}");
+    let o = ShexpOptions { cluster: T as u32, ..ShexpOptions::default() };
+    let settings = RenderSettings { width: W, height: H, technique: spec.clone(), ..Default::default() };
+    let (hdr, g, bvh) = engine_tests::render_with_bvh(&gpu, &scene, settings);
+    assert_finite(&hdr, &spec);
+    let twin = Twin::new(&o, &scene.environment).expect("twin tables");
+    let planes = scene.blockers.planes.clone();
+    let albedo = [0.7, 0.8];
+    let (w, h) = (W as usize, H as usize);
+    let mut errs = Vec::new();
+    let (mut whole, mut entries, mut scaled) = (0, 0, 0);
+    for ty in 0..h.div_ceil(T) {
+        for tx in 0..w.div_ceil(T) {
+            let pixels: Vec<usize> = (0..T * T)
+                .map(|k| (tx * T + k % T, ty * T + k / T))
+                .filter(|&(x, y)| x < w && y < h)
+                .map(|(x, y)| y * w + x)
+                .filter(|&i| g[i].is_some())
+                .collect();
+            let items: Vec<DVec3> = pixels.iter().map(|&i| g[i].unwrap().0).collect();
+            let cut = twin.cluster_cut(&bvh.nodes, bvh.spheres.len() as u32, &items).expect("no overflow here");
+            entries += cut.entries.len();
+            whole += cut.entries.iter().filter(|(_, w)| w[0] != 1.0).count();
+            scaled += cut.entries.iter().filter(|(_, w)| (w[0] - 1.0).abs() > 0.05).count();
+            for &i in &pixels {
+                let (p, n, m) = g[i].unwrap();
+                let (v, count) = twin.visibility_clustered(p, n, &cut, &planes);
+                let (want, free) = twin.shade_diffuse_with(&v, count, n, [albedo[m]; 3]);
+                let got = rgb(&hdr, i);
+                for c in 0..3 {
+                    errs.push((got[c] - want[c]).abs() / (albedo[m] * free[c]).abs().max(1e-6));
+                }
+            }
+        }
+    }
+    eprintln!("clusters: {entries} cut entries, {whole} nodes with W ≠ 1 ({scaled} by more than 5 %)");
+    assert!(scaled >= 10, "the test must exercise ratio vectors: only {scaled} nodes scaled");
+    errs.sort_by(f64::total_cmp);
+    // Measured: p95 1.9e-6, max 4.4e-6 of the unshadowed value.
+    check(&errs, &spec, "4×4 clusters", 1e-5, 1e-4);
+
+    // W's effect, against the leaves-only image.
+    let image = |spec: &str| {
+        let settings = RenderSettings { width: W, height: H, technique: spec.into(), ..Default::default() };
+        engine_tests::render_with_gbuffer(&gpu, &scene, settings).0
+    };
+    let leaves = image("shexp:theta_max=0");
+    let rmse = |a: &[f32]| {
+        let (num, den) = a
+            .iter()
+            .zip(&leaves)
+            .enumerate()
+            .filter(|(i, _)| i % 4 != 3)
+            .fold((0.0, 0.0), |(n, d), (_, (x, y))| (n + (*x as f64 - *y as f64).powi(2), d + (*y as f64).powi(2)));
+        (num / den).sqrt()
+    };
+    let (with_w, without_w, per_receiver) =
+        (rmse(&hdr), rmse(&image("shexp:cluster=4,ratio_vectors=off")), rmse(&image("shexp")));
+    eprintln!(
+        "relative RMSE against leaves only: clusters with W {:.3} %, without W {:.3} %, a cut per receiver {:.3} %",
+        100.0 * with_w,
+        100.0 * without_w,
+        100.0 * per_receiver
+    );
+    assert!(with_w < 0.6 * without_w, "ratio vectors should bring the cut close to its leaves");
     gpu.shutdown().expect("clean teardown");
 }
 

@@ -71,12 +71,25 @@ pub fn cut(
     cone: &Cone,
     stack_size: usize,
 ) -> Cut {
+    cut_dropping(nodes, sphere_count, receiver, sin_theta_max, |s| !cone_intersects_sphere(cone, s), stack_size)
+}
+
+/// [`cut`] with any drop test in place of the cone: a node for which `drop` holds is dropped with its
+/// subtree (the receiver-cluster pass of shaders-glsl/shade/shexp/clusters.glsl drops by θ_min only).
+pub fn cut_dropping(
+    nodes: &[GpuBvhNode],
+    sphere_count: u32,
+    receiver: &Sphere,
+    sin_theta_max: f64,
+    drop: impl Fn(&Sphere) -> bool,
+    stack_size: usize,
+) -> Cut {
     let mut c = Cursor::begin(sphere_count, stack_size);
     let mut out = Vec::new();
     while let Some(v) = c.next() {
         let n = &nodes[v as usize];
         let s = node_sphere(n);
-        if !cone_intersects_sphere(cone, &s) {
+        if drop(&s) {
             continue;
         }
         let small = s.radius < sin_theta_max * (receiver.center.distance(s.center) - receiver.radius);
@@ -85,6 +98,23 @@ pub fn cut(
         }
     }
     Cut { nodes: out, overflowed: c.overflowed }
+}
+
+/// The leaves below node `v` in visiting order (a node whose children do not fit on a stack of
+/// `stack_size` is taken whole), those for which `drop` holds left out, subtrees included.
+pub fn leaves_under(nodes: &[GpuBvhNode], v: u32, drop: impl Fn(&Sphere) -> bool, stack_size: usize) -> Vec<u32> {
+    let mut c = Cursor { stack: vec![v], cap: stack_size, overflowed: false };
+    let mut out = Vec::new();
+    while let Some(u) = c.next() {
+        let n = &nodes[u as usize];
+        if drop(&node_sphere(n)) {
+            continue;
+        }
+        if is_leaf(n) || !c.push_children(n.left, n.right) {
+            out.push(u);
+        }
+    }
+    out
 }
 
 /// Input sphere indices of the leaves whose spheres intersect `cone` (sorted).

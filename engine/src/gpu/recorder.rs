@@ -231,6 +231,14 @@ impl Recorder<'_> {
         unsafe { self.gpu.device.cmd_fill_buffer(self.frame.cmd, self.frame.crumb.raw, 0, 4, passes_finished) };
     }
 
+    /// Fill the whole of `buffer` with the 32-bit `value` (a transfer: put a [`Self::barrier`] before a
+    /// pass that reads it; [`Self::begin_pass`] already puts one after earlier work).
+    pub fn fill_buffer(&mut self, buffer: &super::Buffer, value: u32) {
+        // SAFETY: cmd is recording, outside any render pass; the buffer is alive until the frame's fence and
+        // was created with TRANSFER_DST (every BufferDesc preset has it).
+        unsafe { self.gpu.device.cmd_fill_buffer(self.frame.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value) };
+    }
+
     /// Start a timed pass (ends the previous one). A barrier separates it from earlier work.
     pub fn begin_pass(&mut self, name: &str) {
         if self.open_pass {

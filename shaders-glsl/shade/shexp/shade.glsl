@@ -3,8 +3,9 @@
 // Per receiver p with normal n:
 // - blockers: the cut of the sphere BVH by subtended angle θ_max (SHEXP Eq. 36, bvh_cut.glsl), spheres
 //   entirely behind the tangent plane culled, straddling ones shrunk, receivers inside handled
-//   (the §6.2 rules, blocker_for_receiver); a node taken whole blocks as its bounding sphere (no
-//   ratio vectors: the GPU BVH's node spheres are used as they are). Each blocker adds the circle
+//   (the §6.2 rules, blocker_for_receiver); a node taken whole blocks as its bounding sphere. With
+//   receiver clusters (cluster > 0) the cut is the cluster's (clusters.glsl) and each node taken whole
+//   is scaled by its ratio vector W (Eq. 38). Each blocker adds the circle
 //   log f*(u = 1 − cos θ) from the table rotated to its direction (Eq. 34). Plane blockers: a
 //   half-space below p multiplies g by the exact projection of the half-space's visibility
 //   (u = 1 about −m); a rectangle by that of a circle of its exact solid angle about its cone's mean
@@ -21,54 +22,15 @@
 #include "../common.glsl"
 #include "../prefiltered.glsl"
 #include "../lights.glsl"
-#include "../../common/sh.glsl"
-#ifndef SHEXP_N
-#define SHEXP_N 4
-#endif
-#define BVH_STACK_SIZE 32
-#include "../../common/bvh.glsl"
-
 layout(binding = 8) uniform sampler2D prefiltered_env;
 layout(binding = 9) uniform sampler2D irradiance_map;
-layout(std430, binding = 10) readonly buffer ShGamma { uvec2 sh_gamma[]; };
-layout(std430, binding = 11) readonly buffer ShOl { vec2 sh_ol[]; };
-layout(std430, binding = 12) readonly buffer ShCircle { float sh_circle[]; };
-layout(std430, binding = 13) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
-// Twin: engine::passes::shade::shexp::GpuShexpParams.
-struct ShexpParams {
-    uint sphere_count;
-    float sin_theta_max;   // SHEXP Eq. 36 (0: leaves only)
-    uint exp_method;       // 0 hyb, 1 ol, 2 ps*
-    int ps_degree;         // p of PS*-p
-    float hyb_target;      // ‖f̂‖ after HYB's scaling
-    float ol_norm_max;     // the OL table's last ‖f̂‖
-    uint gamma_count;      // entries of the Γ table
-    uint diffuse_mode;     // 0 sh, 1 ratio
-    float large_u;         // u = 1 − cos θ above which a sphere multiplies its visibility (large=product; 2: never)
-    uint accumulate;       // 0 log (the paper), 1 product (Zhou et al. 2005: every sphere multiplies g)
-    float sin_theta_min;   // theta_min: nodes and spheres subtending less are dropped (0: none)
-    uint pad;
-    vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
-    vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
-};
-layout(std430, binding = 14) readonly buffer ShexpParamsBuf { ShexpParams shx; };
-// The environment's windowed order-n projection, RGB (w = 0), n² records.
-layout(std430, binding = 15) readonly buffer EnvSh { vec4 env_sh[]; };
+#include "bindings.glsl"
 #include "../../common/planes.glsl"
 layout(std430, binding = 21) readonly buffer BlockerPlanes {
     uint plane_count;
     BlockerPlane blocker_planes[];  // at least one record (zero when plane_count = 0)
 };
 
-#define SHN_GAMMA(e) sh_gamma[e]
-#define SHN_GAMMA_COUNT shx.gamma_count
-#define SHN_OL(k) sh_ol[k]
-#define SHN_OL_COUNT 256
-#define SHN_OL_NORM_MAX shx.ol_norm_max
-#define SHN_CIRCLE_SEGMENTS 12
-#define SHN_CIRCLE_SAMPLES 64
-#define SHN_CIRCLE(e, c) sh_circle[(e) * (SHEXP_N + 1) + (c)]
-#include "../../common/shexp_n.glsl"
 
 // The cut's visitor adds into these (bvh_cut.glsl calls BVH_CUT_VISIT from its loop).
 float g_log[SHN_C];
@@ -104,6 +66,35 @@ void shexp_visit(vec4 s) {
     shn_add_circle_log(g_log, u, b.xyz - g_p);
     g_blockers += 1u;
 }
+// A receiver-cluster entry (cluster > 0): as shexp_visit, its log scaled per band by the entry's ratio
+// vector W (SHEXP Eq. 38). A sphere past the clip (large=product) multiplies unweighted: only leaves
+// (W = 1) get there unless θ_max exceeds θ_clip, as a node taken whole subtends less than θ_max.
+void shexp_visit_weighted(ClusterEntry ce) {
+    vec4 b;
+    if (!blocker_for_receiver(g_p, g_n, ce.sphere, b)) return;
+    float u = shn_sphere_u(g_p, b);
+    if (!(u > 0.0)) return;
+    if (u > shx.large_u && g_large_count < uint(SHEXP_MAX_LARGE)) {
+        g_large[g_large_count] = vec4(b.xyz - g_p, u);
+        g_large_count += 1u;
+        return;
+    }
+    float w[8] = float[8](ce.w_lo.x, ce.w_lo.y, ce.w_lo.z, ce.w_lo.w, ce.w_hi.x, ce.w_hi.y, ce.w_hi.z, ce.w_hi.w);
+    shn_add_circle_log_weighted(g_log, u, b.xyz - g_p, w);
+    g_blockers += 1u;
+}
+
+// The receiver cluster of this invocation (clusters.glsl numbers them the same way).
+uint shexp_cluster_of_invocation() {
+    uint t = max(shx.cluster, 1u);
+#ifdef SHEXP_PIXEL
+    uint tiles_x = (frame.size.x + t - 1u) / t;
+    return (gl_GlobalInvocationID.y / t) * tiles_x + gl_GlobalInvocationID.x / t;
+#else
+    return gl_GlobalInvocationID.x / (t * t);
+#endif
+}
+
 #define BVH_CUT_VISIT(index, s) shexp_visit(s)
 // theta_min (SHEXP §7, tiny blockers): a node whose bounding sphere subtends less than θ_min from p is
 // dropped with its subtree (its spheres lie inside it, so each subtends less too). Twin: the f64 cpu's
@@ -197,7 +188,21 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
     g_n = n;
     g_blockers = 0u;
     g_large_count = 0u;
-    if (shx.sphere_count > 0u) bvh_cut(shx.sphere_count, vec4(p, 0.0), shx.sin_theta_max, p, n, 0.5 * PI);
+    if (shx.sphere_count > 0u) {
+        // cluster > 0: the blockers of the cluster's cut with their ratio vectors, unless it overflowed.
+        bool cut_done = false;
+        if (shx.cluster > 0u) {
+            uint c = shexp_cluster_of_invocation();
+            uvec4 head = cluster_heads[c];
+            if (head.y == 0u) {
+                for (uint e = 0u; e < min(head.x, uint(SHEXP_CLUSTER_CAP)); ++e) {
+                    shexp_visit_weighted(cluster_cut[head.w + e]);
+                }
+                cut_done = true;
+            }
+        }
+        if (!cut_done) bvh_cut(shx.sphere_count, vec4(p, 0.0), shx.sin_theta_max, p, n, 0.5 * PI);
+    }
     for (int i = 0; i < SHN_C; ++i) g[i] = 0.0;
     bool one = g_blockers == 0u;
     if (one) {

@@ -4,8 +4,10 @@
 //! tangent half-space, which is what [`Twin::log_visibility`] does over the sphere list.
 
 use super::{ExpChoice, ShexpOptions};
+use engine_blockers::bvh::GpuBvhNode;
 use engine_blockers::geom::{blocker_for_receiver, Sphere};
 use engine_blockers::plane::BlockerPlane;
+use engine_blockers::traverse;
 use engine_math::envmap::LatLongMap;
 use engine_math::sh::{
     circle_visibility, irradiance_weighting, project_latlong, theta_of_u, zh_rotate_star_into, CircleLogTable,
@@ -79,10 +81,125 @@ impl Twin {
     }
 
     fn add_circle(&self, f: &mut [f64], u: f64, axis: DVec3) {
+        self.add_circle_weighted(f, u, axis, &[1.0; 8]);
+    }
+
+    /// The circle's log scaled per band by a ratio vector (SHEXP Eq. 38).
+    fn add_circle_weighted(&self, f: &mut [f64], u: f64, axis: DVec3, w: &[f64; 8]) {
         let n = self.options.order;
         let mut v = vec![0.0; n * n];
-        zh_rotate_star_into(&self.circles.lookup_u(u), axis.to_array(), &mut v);
+        let fstar: Vec<f64> = self.circles.lookup_u(u).iter().zip(w).map(|(a, b)| a * b).collect();
+        zh_rotate_star_into(&fstar, axis.to_array(), &mut v);
         f.iter_mut().zip(&v).for_each(|(a, b)| *a += b);
+    }
+
+    /// The receiver-cluster pass (shaders-glsl/shade/shexp/clusters.glsl) for one cluster: `items` its
+    /// receivers' positions in the shader's order (row-major in the tile, or vertex order), `nodes` the
+    /// GPU's BVH over `sphere_count` spheres. `None` when the cut exceeds [`super::CLUSTER_CAP`] (the shader
+    /// then cuts per receiver). The bounding sphere, p*, the cut and W as the shader computes them.
+    pub fn cluster_cut(&self, nodes: &[GpuBvhNode], sphere_count: u32, items: &[DVec3]) -> Option<ClusterCut> {
+        if items.is_empty() || sphere_count == 0 {
+            return Some(ClusterCut {
+                entries: Vec::new(),
+                p_star: DVec3::ZERO,
+                receiver: Sphere::new(DVec3::ZERO, 0.0),
+            });
+        }
+        let (lo, hi) =
+            items.iter().fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+        let centre = 0.5 * (lo + hi);
+        let radius = items.iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
+        let mut ps = items[0];
+        for p in items {
+            if p.distance(centre) < ps.distance(centre) {
+                ps = *p;
+            }
+        }
+        let o = &self.options;
+        let sin_max = o.theta_max_deg.to_radians().sin() as f32 as f64;
+        let sin_min = o.theta_min_deg.to_radians().sin() as f32 as f64;
+        let receiver = Sphere::new(centre, radius);
+        let cut = traverse::cut_dropping(
+            nodes,
+            sphere_count,
+            &receiver,
+            sin_max,
+            |s| s.radius < sin_min * (s.center.distance(centre) - radius),
+            traverse::STACK_SIZE,
+        );
+        if cut.nodes.len() > super::CLUSTER_CAP as usize {
+            return None;
+        }
+        let entries = cut
+            .nodes
+            .iter()
+            .map(|&v| {
+                let node = &nodes[v as usize];
+                let s = traverse::node_sphere(node);
+                let w = if traverse::is_leaf(node) || !o.ratio_vectors {
+                    [1.0; 8]
+                } else {
+                    self.ratio_vector(nodes, v, ps, sin_min)
+                };
+                (s, w)
+            })
+            .collect();
+        Some(ClusterCut { entries, p_star: ps, receiver })
+    }
+
+    /// W of node `v` at p* (SHEXP Eq. 37): per band the least-squares scale of the node sphere's raw log
+    /// f_b onto the sum f_d of its leaves' raw logs (leaves below θ_min from p* dropped); 1 where f_b
+    /// vanishes.
+    fn ratio_vector(&self, nodes: &[GpuBvhNode], v: u32, ps: DVec3, sin_min: f64) -> [f64; 8] {
+        let mut w = [1.0; 8];
+        let s = traverse::node_sphere(&nodes[v as usize]);
+        let ub = sphere_u(ps, &s);
+        if !(ub > 0.0 && ub < 1.0) {
+            return w;
+        }
+        let n = self.options.order;
+        let mut fb = vec![0.0; n * n];
+        self.add_circle(&mut fb, ub, s.center - ps);
+        let mut fd = vec![0.0; n * n];
+        for u in traverse::leaves_under(nodes, v, |q| q.radius < sin_min * q.center.distance(ps), traverse::STACK_SIZE)
+        {
+            let q = traverse::node_sphere(&nodes[u as usize]);
+            self.add_circle(&mut fd, sphere_u(ps, &q), q.center - ps);
+        }
+        for (l, wl) in w.iter_mut().enumerate().take(n) {
+            let band = l * l..(l + 1) * (l + 1);
+            let num: f64 = band.clone().map(|i| fb[i] * fd[i]).sum();
+            let den: f64 = band.map(|i| fb[i] * fb[i]).sum();
+            if den > 1e-30 {
+                *wl = num / den;
+            }
+        }
+        w
+    }
+
+    /// The visibility vector at receiver `p` of a cluster from its cut (`visibility` with the cluster's
+    /// entries, each node's log scaled by its W, in place of the receiver's own cut).
+    pub fn visibility_clustered(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        cut: &ClusterCut,
+        planes: &[BlockerPlane],
+    ) -> (Vec<f64>, usize) {
+        let c = self.options.order * self.options.order;
+        let mut f = vec![0.0; c];
+        let mut count = 0;
+        let mut large = Vec::new();
+        for (s, w) in &cut.entries {
+            let Some((u, axis)) = sphere_circle(p, n, s) else { continue };
+            if u > self.large_u && large.len() < MAX_LARGE {
+                large.push((u, axis));
+                continue;
+            }
+            self.add_circle_weighted(&mut f, u, axis, w);
+            count += 1;
+        }
+        self.finish_visibility(p, f, count, large, planes)
     }
 
     /// Σ of the sphere blockers' log vectors at receiver `p` with unit normal `n`, how many, and the
@@ -158,7 +275,20 @@ impl Twin {
         if self.options.accumulate_product {
             return self.product_visibility(p, n, spheres, planes);
         }
-        let (f, mut count, large) = self.log_visibility_split(p, n, spheres);
+        let (f, count, large) = self.log_visibility_split(p, n, spheres);
+        self.finish_visibility(p, f, count, large, planes)
+    }
+
+    /// g from the summed sphere log `f` of `count` spheres: its exponential (1 without spheres), times each
+    /// large sphere's and each plane's exact projected visibility.
+    fn finish_visibility(
+        &self,
+        p: DVec3,
+        f: Vec<f64>,
+        mut count: usize,
+        large: Vec<(f64, DVec3)>,
+        planes: &[BlockerPlane],
+    ) -> (Vec<f64>, usize) {
         let mut g = if count == 0 {
             let mut g = vec![0.0; f.len()];
             g[0] = SQRT_4PI;
@@ -206,8 +336,13 @@ impl Twin {
         planes: &[BlockerPlane],
     ) -> ([f64; 3], [f64; 3]) {
         let (g, count) = self.visibility(p, n, spheres, planes);
+        self.shade_diffuse_with(&g, count, n, rho)
+    }
+
+    /// [`Self::shade_diffuse`] from a visibility vector `g` of `count` blockers.
+    pub fn shade_diffuse_with(&self, g: &[f64], count: usize, n: DVec3, rho: [f64; 3]) -> ([f64; 3], [f64; 3]) {
         let h = irradiance_weighting(self.options.order, n.to_array());
-        let pv = if count == 0 { h.clone() } else { self.tensor.product(&h, &g) };
+        let pv = if count == 0 { h.clone() } else { self.tensor.product(&h, g) };
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         let shaded = [0, 1, 2].map(|c| rho[c] * dot(&self.env[c], &pv).max(0.0));
         let free = [0, 1, 2].map(|c| dot(&self.env[c], &h));
@@ -215,21 +350,39 @@ impl Twin {
     }
 }
 
+/// One receiver cluster's cut ([`Twin::cluster_cut`]): each blocker sphere with its ratio vector (w_l, l < 8).
+#[derive(Clone, Debug)]
+pub struct ClusterCut {
+    pub entries: Vec<(Sphere, [f64; 8])>,
+    /// The central point p* where W was computed.
+    pub p_star: DVec3,
+    /// The receivers' bounding sphere the cut was made for.
+    pub receiver: Sphere,
+}
+
 /// The circle a sphere blocks at receiver `p` (normal `n`) after the §6.2 rules: (u = 1 − cos θ, axis to its
-/// centre), `None` when culled or of no radius (shn_sphere_u in shexp_n.glsl; u = 1 inside it).
+/// centre), `None` when culled or of no radius.
 fn sphere_circle(p: DVec3, n: DVec3, s: &Sphere) -> Option<(f64, DVec3)> {
     let b = blocker_for_receiver(p, n, s)?;
     if b.radius <= 0.0 {
         return None;
     }
+    Some((sphere_u(p, &b), b.center - p))
+}
+
+/// u = 1 − cos θ of sphere `b` seen from `p` without cancellation, 1 on or inside it, 0 without radius
+/// (shn_sphere_u in shexp_n.glsl).
+fn sphere_u(p: DVec3, b: &Sphere) -> f64 {
+    if b.radius <= 0.0 {
+        return 0.0;
+    }
     let d = b.center.distance(p);
-    let u = if d <= b.radius {
+    if d <= b.radius {
         1.0
     } else {
         let s = b.radius / d;
         s * s / (1.0 + (1.0 - s * s).max(0.0).sqrt())
-    };
-    Some((u, b.center - p))
+    }
 }
 
 /// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom–Strackee).

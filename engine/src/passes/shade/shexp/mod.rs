@@ -25,7 +25,7 @@
 //! buffers. [`cpu`] is the f64 twin of the per-receiver pipeline.
 
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
-use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
+use crate::gpu::{Binding, Buffer, BufferDesc, ComputePipeline, Gpu, GpuError, Recorder, Result};
 use crate::options::{Kind, OptionSpec, Options};
 use crate::tables::MathTables;
 use engine_math::sh::{irradiance_weighting_star, project_latlong, Window};
@@ -105,6 +105,20 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("log"),
         help: "log (the paper: sum the log vectors, one exponential) or product (the baseline of SHEXP Fig. 8, Zhou et al. 2005: multiply g by every sphere's projected visibility with the triple-product tensor; exp, large are then unused)",
     },
+    OptionSpec {
+        key: "cluster",
+        aliases: &[],
+        kind: Kind::Int { min: 0, max: 32 },
+        default: Some("16"),
+        help: "receiver clusters T (SHEXP §6.3): per pixel T×T screen tiles, per vertex blocks of T² consecutive vertices; one θ_max cut per cluster from its bounding sphere, with ratio vectors W at its central point (0: a cut per receiver, no W; accumulate=log only)",
+    },
+    OptionSpec {
+        key: "ratio_vectors",
+        aliases: &[],
+        kind: Kind::Choice(&["on", "off"]),
+        default: Some("on"),
+        help: "with cluster > 0: on (W of Eq. 37 scales each node taken whole) or off (W = 1: nodes block as their bounding spheres, SHEXP Fig. 6b)",
+    },
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
@@ -154,6 +168,10 @@ pub struct ShexpOptions {
     pub large_product: bool,
     /// `accumulate=product`: every sphere multiplies g (the product baseline) instead of adding its log.
     pub accumulate_product: bool,
+    /// `cluster`: receiver clusters of T×T pixels or T² vertices (0: a cut per receiver).
+    pub cluster: u32,
+    /// `ratio_vectors=on`: the clusters' nodes taken whole are scaled by W (Eq. 37–38).
+    pub ratio_vectors: bool,
 }
 
 impl Default for ShexpOptions {
@@ -169,6 +187,8 @@ impl Default for ShexpOptions {
             ratio: false,
             large_product: true,
             accumulate_product: false,
+            cluster: 16,
+            ratio_vectors: true,
         }
     }
 }
@@ -190,12 +210,24 @@ impl ShexpOptions {
             ratio: o.choice("diffuse") == "ratio",
             large_product: o.choice("large") == "product",
             accumulate_product: o.choice("accumulate") == "product",
+            cluster: o.int("cluster") as u32,
+            ratio_vectors: o.choice("ratio_vectors") == "on",
         }
     }
 
     /// The lighting window (§7: cos(π/2 · l/h), h = 2n by default).
     pub fn window(&self) -> Window {
         Window::Cosine { h: self.window_h.unwrap_or(2.0 * self.order as f64) }
+    }
+
+    /// The cluster side in use: `cluster`, or 0 with `accumulate=product` (the product baseline has no
+    /// log to scale, so it always cuts per receiver).
+    pub fn cluster_side(&self) -> u32 {
+        if self.accumulate_product {
+            0
+        } else {
+            self.cluster
+        }
     }
 }
 
@@ -219,7 +251,13 @@ pub struct GpuShexpParams {
     pub accumulate: u32,
     /// sin θ_min (`theta_min`; 0: keep every blocker).
     pub sin_theta_min: f32,
-    pub pad: u32,
+    /// Receiver clusters: the tile side T (0: a cut per receiver).
+    pub cluster: u32,
+    /// 1: ratio vectors W (Eq. 37); 0: W = 1.
+    pub ratio_vectors: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -230,8 +268,89 @@ struct Prepared {
     tables: MathTables,
 }
 
+/// `SHEXP_CLUSTER_CAP` of shaders-glsl/shade/shexp/bindings.glsl: cut entries per receiver cluster.
+pub const CLUSTER_CAP: u32 = 512;
+/// Entries in the shared pool per cluster: the number of blocker spheres (no cut is longer), at most this
+/// (then the clusters' average cut may be this long, one cluster's up to [`CLUSTER_CAP`]).
+pub const CLUSTER_POOL_AVERAGE: u32 = 256;
+/// Bytes of one `ClusterEntry` (sphere, w_lo, w_hi).
+const CLUSTER_ENTRY_BYTES: u64 = 48;
+/// The most device memory the cut lists may take (T = 16 at 1920×1080 needs at most 96 MiB, T = 8 384 MiB).
+const MAX_CLUSTER_BYTES: u64 = 1 << 30;
+/// Workgroups per row of the cluster dispatch (`SHEXP_CLUSTERS_PER_ROW` in clusters.glsl): the dispatch is
+/// 2D so that a million clusters stay within the device's 65,535 workgroups per dimension.
+const CLUSTERS_PER_ROW: u32 = 1024;
+
+/// The receiver clusters of `target` at side `t` (T×T pixel tiles or blocks of T² vertices); 0 for `t = 0`.
+pub fn cluster_count(target: &ShadeTarget, t: u32) -> u32 {
+    if t == 0 {
+        return 0;
+    }
+    match target {
+        ShadeTarget::Pixel { radiance, .. } => radiance.desc.width.div_ceil(t) * radiance.desc.height.div_ceil(t),
+        ShadeTarget::Vertex { count, .. } => count.div_ceil(t * t),
+    }
+}
+
+/// The cluster pass's work counts since the last [`Technique::report`] (twin of `shexp_stats` in
+/// bindings.glsl).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ClusterStats {
+    /// Cluster-pass dispatches (frames shaded with clusters).
+    pub frames: u64,
+    /// Clusters holding at least one receiver, summed over the frames.
+    pub clusters: u64,
+    /// Cut entries (leaves and nodes taken whole), summed.
+    pub entries: u64,
+    /// The largest cut of one cluster.
+    pub max_entries: u64,
+    /// Clusters whose cut exceeded [`CLUSTER_CAP`] (their receivers then cut per point).
+    pub overflowed: u64,
+    /// Entries that were nodes taken whole (scaled by W).
+    pub whole: u64,
+    /// Clusters the shared pool could not hold (their receivers then cut per point).
+    pub pool_exhausted: u64,
+}
+
+impl ClusterStats {
+    /// The work line printed by `demo` and `compare`.
+    pub fn line(&self) -> Option<String> {
+        (self.clusters > 0).then(|| {
+            format!(
+                "shexp: {:.0} receiver clusters per frame, {:.1} cut spheres per cluster (max {}), {:.1} % of them \
+                 nodes taken whole with ratio vectors; {} clusters over {CLUSTER_CAP} entries and {} past the pool \
+                 cut per receiver instead",
+                self.clusters as f64 / self.frames.max(1) as f64,
+                self.entries as f64 / self.clusters as f64,
+                self.max_entries,
+                100.0 * self.whole as f64 / self.entries.max(1) as f64,
+                self.overflowed,
+                self.pool_exhausted
+            )
+        })
+    }
+}
+
+/// The cluster heads, the pool of cut entries and its use counter, for up to `capacity` clusters.
+struct ClusterBuffers {
+    heads: Buffer,
+    cut: Buffer,
+    pool: Buffer,
+    capacity: u32,
+    /// Entries the pool holds.
+    entries: u64,
+}
+
 pub struct Shexp {
     pipelines: TargetPipelines,
+    /// The receiver-cluster pass, per pixel and per vertex, created on first use.
+    cluster_pixel: std::cell::OnceCell<ComputePipeline>,
+    cluster_vertex: std::cell::OnceCell<ComputePipeline>,
+    /// Every cluster-buffer pair made so far (the last is the largest and in use; the others stay alive until
+    /// destroy, as an earlier frame may still read them). A steady frame allocates nothing.
+    clusters: std::cell::RefCell<Vec<ClusterBuffers>>,
+    stats: Option<Buffer>,
+    frames: std::cell::Cell<u64>,
     pub options: ShexpOptions,
     prepared: Option<Prepared>,
 }
@@ -283,7 +402,11 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         large_u: large_u(o) as f32,
         accumulate: o.accumulate_product as u32,
         sin_theta_min: o.theta_min_deg.to_radians().sin() as f32,
-        pad: 0,
+        cluster: o.cluster_side(),
+        ratio_vectors: o.ratio_vectors as u32,
+        pad0: 0,
+        pad1: 0,
+        pad2: 0,
         h_star,
         window,
     }
@@ -292,8 +415,23 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
 impl Shexp {
     pub fn new(gpu: &Gpu, options: ShexpOptions) -> Result<Self> {
         let n = options.order.to_string();
-        let pipelines = TargetPipelines::with_defines(gpu, "shexp", &[("SHEXP_N", n.as_str())])?;
-        Ok(Self { pipelines, options, prepared: None })
+        let defines = [("SHEXP_N", n.as_str())];
+        let pipelines = TargetPipelines::with_defines(gpu, "shexp", &defines)?;
+        if options.cluster_side() > 0 {
+            for target in ["pixel", "vertex"] {
+                gpu.compile_compute_shader(&format!("shade/shexp/clusters_{target}.comp"), &defines)?;
+            }
+        }
+        Ok(Self {
+            pipelines,
+            cluster_pixel: std::cell::OnceCell::new(),
+            cluster_vertex: std::cell::OnceCell::new(),
+            clusters: std::cell::RefCell::new(Vec::new()),
+            stats: None,
+            frames: std::cell::Cell::new(0),
+            options,
+            prepared: None,
+        })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -303,6 +441,74 @@ impl Shexp {
             p.tables.destroy(gpu);
         }
     }
+
+    /// The cluster pass for the target, created on first use.
+    fn cluster_pipeline(&self, gpu: &Gpu, per_vertex: bool) -> Result<&ComputePipeline> {
+        let (cell, target) = if per_vertex { (&self.cluster_vertex, "vertex") } else { (&self.cluster_pixel, "pixel") };
+        if cell.get().is_none() {
+            let n = self.options.order.to_string();
+            let p = gpu
+                .create_compute_pipeline(&format!("shade/shexp/clusters_{target}.comp"), &[("SHEXP_N", n.as_str())])?;
+            if let Err(p) = cell.set(p) {
+                gpu.destroy_compute_pipeline(p);
+            }
+        }
+        cell.get().ok_or_else(|| GpuError::Other("internal: shexp cluster pipeline missing".into()))
+    }
+
+    /// Cluster buffers for at least `count` clusters over `spheres` blocker spheres (at least one cluster:
+    /// the shade pass always binds them).
+    fn ensure_cluster_buffers(&self, gpu: &Gpu, count: u32, spheres: u32) -> Result<()> {
+        let capacity = count.max(1);
+        let entries = (spheres.clamp(1, CLUSTER_POOL_AVERAGE) as u64 * capacity as u64).max(CLUSTER_CAP as u64);
+        let mut all = self.clusters.borrow_mut();
+        if all.last().is_some_and(|b| b.capacity >= capacity && b.entries >= entries) {
+            return Ok(());
+        }
+        let bytes = CLUSTER_ENTRY_BYTES * entries;
+        if bytes > MAX_CLUSTER_BYTES {
+            return Err(GpuError::Other(format!(
+                "shexp: {capacity} receiver clusters would need {} MiB of cut lists (at most {} MiB): use a larger \
+                 cluster=T",
+                bytes >> 20,
+                MAX_CLUSTER_BYTES >> 20
+            )));
+        }
+        let [heads, cut, pool] = crate::resources::make_buffers(
+            gpu,
+            [
+                &|| gpu.create_buffer("shexp-cluster-heads", BufferDesc::gpu_only(16 * capacity as u64)),
+                &|| gpu.create_buffer("shexp-cluster-cut", BufferDesc::gpu_only(bytes)),
+                &|| gpu.create_buffer("shexp-cluster-pool", BufferDesc::gpu_only(16)),
+            ],
+        )?;
+        all.push(ClusterBuffers { heads, cut, pool, capacity, entries });
+        Ok(())
+    }
+
+    /// The cluster pass's counts since the last reset.
+    pub fn cluster_stats(&self, gpu: &Gpu) -> Result<ClusterStats> {
+        let Some(b) = &self.stats else { return Ok(ClusterStats::default()) };
+        let v: Vec<u32> = gpu.read_buffer(b)?;
+        let g = |i: usize| v.get(i).copied().unwrap_or(0) as u64;
+        Ok(ClusterStats {
+            frames: self.frames.get(),
+            clusters: g(0),
+            entries: g(1),
+            max_entries: g(2),
+            overflowed: g(3),
+            whole: g(4),
+            pool_exhausted: g(5),
+        })
+    }
+
+    fn reset_cluster_stats(&self, gpu: &Gpu) -> Result<()> {
+        self.frames.set(0);
+        match &self.stats {
+            Some(b) => gpu.copy_to_buffer(b, bytemuck::cast_slice(&[0u32; 8])),
+            None => Ok(()),
+        }
+    }
 }
 
 impl Technique for Shexp {
@@ -310,8 +516,18 @@ impl Technique for Shexp {
         "shexp"
     }
 
+    /// The receiver clusters' work line (`cluster` > 0) since the last call (then the counters restart).
+    fn report(&mut self, gpu: &Gpu) -> Result<super::TechniqueReport> {
+        let s = self.cluster_stats(gpu)?;
+        self.reset_cluster_stats(gpu)?;
+        Ok(super::TechniqueReport { warnings: Vec::new(), counts: s.line().into_iter().collect() })
+    }
+
     fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()> {
         self.release(gpu);
+        if self.stats.is_none() {
+            self.stats = Some(gpu.upload_buffer("shexp-stats", BufferDesc::gpu_only(0), &[0u32; 8])?);
+        }
         let o = &self.options;
         let tables = MathTables::load(gpu, &crate::tables::default_dir(), &tables_of(o.order))
             .map_err(|e| GpuError::Other(e.to_string()))?;
@@ -350,12 +566,51 @@ impl Technique for Shexp {
         };
         let env = inputs.environment;
         let blockers = inputs.blockers()?;
+        let stats = self.stats.as_ref().ok_or_else(|| GpuError::Other("shexp: stats missing".into()))?;
+        let side = self.options.cluster_side();
+        let clusters = cluster_count(&target, side);
+        self.ensure_cluster_buffers(rec.gpu(), clusters, blockers.sphere_count)?;
+        let all = self.clusters.borrow();
+        let cb = all.last().ok_or_else(|| GpuError::Other("internal: shexp cluster buffers missing".into()))?;
+        if clusters > 0 && blockers.sphere_count > 0 {
+            let mut b = vec![
+                Binding::buffer("FrameBuf", inputs.frame),
+                Binding::buffer("BvhNodes", &blockers.bvh_nodes),
+                Binding::buffer("ShCircle", table(MathTable::ShCircleLog(n))?),
+                Binding::buffer("ShexpParamsBuf", &p.params),
+                Binding::buffer("ClusterHeads", &cb.heads),
+                Binding::buffer("ClusterCut", &cb.cut),
+                Binding::buffer("ClusterPool", &cb.pool),
+                Binding::buffer("ShexpStats", stats),
+            ];
+            let per_vertex = match target {
+                ShadeTarget::Pixel { gbuffer, .. } => {
+                    rec.begin_pass("shade/shexp clusters");
+                    b.push(Binding::storage_image("gbuf_position", &gbuffer.position));
+                    false
+                }
+                ShadeTarget::Vertex { world_vertices, .. } => {
+                    rec.begin_pass("shade/shexp clusters (per vertex)");
+                    b.push(Binding::buffer("WorldVertices", world_vertices));
+                    true
+                }
+            };
+            rec.fill_buffer(&cb.pool, 0);
+            rec.barrier();
+            let pipeline = self.cluster_pipeline(rec.gpu(), per_vertex)?;
+            let rows = clusters.div_ceil(CLUSTERS_PER_ROW);
+            rec.dispatch(pipeline, &b, &[], [clusters.min(CLUSTERS_PER_ROW) * 64, rows, 1])?;
+            self.frames.set(self.frames.get() + 1);
+        }
         self.pipelines.record(
             rec,
             "shexp",
             inputs,
             target,
             &[
+                Binding::buffer("ClusterHeads", &cb.heads),
+                Binding::buffer("ClusterCut", &cb.cut),
+                Binding::buffer("ShexpStats", stats),
                 Binding::sampled("prefiltered_env", &env.prefiltered),
                 Binding::sampled("irradiance_map", &env.irradiance),
                 Binding::buffer("ShGamma", table(MathTable::ShGamma(n))?),
@@ -372,6 +627,17 @@ impl Technique for Shexp {
 
     fn destroy(mut self: Box<Self>, gpu: &Gpu) {
         self.release(gpu);
+        for b in self.clusters.take() {
+            gpu.destroy_buffer(b.heads);
+            gpu.destroy_buffer(b.cut);
+            gpu.destroy_buffer(b.pool);
+        }
+        if let Some(b) = self.stats.take() {
+            gpu.destroy_buffer(b);
+        }
+        for p in [self.cluster_pixel.take(), self.cluster_vertex.take()].into_iter().flatten() {
+            gpu.destroy_compute_pipeline(p);
+        }
         self.pipelines.destroy(gpu);
     }
 }
