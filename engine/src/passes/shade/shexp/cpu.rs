@@ -279,22 +279,48 @@ impl Twin {
         self.finish_visibility(p, f, count, large, planes)
     }
 
+    /// [`Self::visibility`] (log accumulation) with the spheres' summed log exponentiated by `exp` instead of
+    /// the configured method (e.g. the exact exp* of the error decomposition, `shexp_errors`).
+    pub fn visibility_with_exp(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        spheres: &[Sphere],
+        planes: &[BlockerPlane],
+        exp: &dyn Fn(&[f64]) -> Vec<f64>,
+    ) -> (Vec<f64>, usize) {
+        let (f, count, large) = self.log_visibility_split(p, n, spheres);
+        self.finish_visibility_by(p, f, count, large, planes, exp)
+    }
+
     /// g from the summed sphere log `f` of `count` spheres: its exponential (1 without spheres), times each
     /// large sphere's and each plane's exact projected visibility.
     fn finish_visibility(
         &self,
         p: DVec3,
         f: Vec<f64>,
+        count: usize,
+        large: Vec<(f64, DVec3)>,
+        planes: &[BlockerPlane],
+    ) -> (Vec<f64>, usize) {
+        self.finish_visibility_by(p, f, count, large, planes, &|f| self.exp(f))
+    }
+
+    fn finish_visibility_by(
+        &self,
+        p: DVec3,
+        f: Vec<f64>,
         mut count: usize,
         large: Vec<(f64, DVec3)>,
         planes: &[BlockerPlane],
+        exp: &dyn Fn(&[f64]) -> Vec<f64>,
     ) -> (Vec<f64>, usize) {
         let mut g = if count == 0 {
             let mut g = vec![0.0; f.len()];
             g[0] = SQRT_4PI;
             g
         } else {
-            self.exp(&f)
+            exp(&f)
         };
         for (u, axis) in large.into_iter().chain(self.plane_circles(p, planes)) {
             let v = circle_visibility(self.options.order, theta_of_u(u), axis.to_array());
