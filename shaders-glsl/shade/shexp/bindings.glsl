@@ -30,7 +30,7 @@ struct ShexpParams {
     float sin_theta_min;   // theta_min: nodes and spheres subtending less are dropped (0: none)
     uint cluster;          // receiver clusters (SHEXP §6.3): tile side T (0: a cut per receiver)
     uint ratio_vectors;    // 1: W from Eq. 37; 0: W = 1 (the cut's nodes block as their bounding spheres)
-    uint pad0;
+    uint vertex_clusters;  // clusters of the per-vertex target (VertexCluster* below)
     uint pad1;
     uint pad2;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
@@ -64,6 +64,12 @@ struct ClusterEntry {
 layout(std430, binding = 22) buffer ClusterHeads { uvec4 cluster_heads[]; };
 layout(std430, binding = 23) buffer ClusterCut { ClusterEntry cluster_cut[]; };
 layout(std430, binding = 25) buffer ClusterPool { uint cluster_pool_used; };
+// The per-vertex target's clusters (engine::passes::shade::shexp::vertex_clusters: spatial groups of at most
+// T² vertices of one instance): cluster c holds vertices vc_items[vc_offsets[c] .. vc_offsets[c + 1]];
+// vc_of[v] is vertex v's cluster.
+layout(std430, binding = 26) readonly buffer VertexClusterOffsets { uint vc_offsets[]; };
+layout(std430, binding = 27) readonly buffer VertexClusterItems { uint vc_items[]; };
+layout(std430, binding = 28) readonly buffer VertexCluster { uint vc_of[]; };
 // Work counts (twin: engine::passes::shade::shexp::ClusterStats): clusters with receivers, cut entries,
 // the largest cut, clusters over the cap, nodes taken whole, clusters the pool could not hold.
 layout(std430, binding = 24) buffer ShexpStats { uint shexp_stats[8]; };

@@ -1,6 +1,7 @@
 // Technique `shexp`, receiver clusters (SHEXP §6.3 "Per-cluster computation"): one workgroup of 64 per
 // cluster, before the shade pass. A cluster is a T×T screen tile (per pixel, clusters_pixel.comp) or a
-// block of T² consecutive vertices (per vertex, clusters_vertex.comp), T = shx.cluster.
+// spatial group of at most T² vertices of one instance (per vertex, clusters_vertex.comp; vertex_clusters.rs),
+// T = shx.cluster.
 // 1. The receivers' bounding sphere (p_R, r_R): the centre of their bounding box and the largest distance
 //    from it; the central point p* is the receiver nearest that centre (lowest index on ties).
 // 2. One cut of the blocker BVH for the whole cluster (thread 0): a node is taken whole when it subtends
@@ -37,7 +38,9 @@ bool cluster_item(uint c, uint k, out vec3 p) {
     if (!(q.w >= 0.5)) return false;
     p = q.xyz;
 #else
-    uint i = c * t * t + k;
+    uint first = vc_offsets[c];
+    if (k >= min(vc_offsets[c + 1u] - first, t * t)) return false;
+    uint i = vc_items[first + k];
     if (i >= frame.vertex_count) return false;
     p = world[i].position.xyz;
 #endif
@@ -99,7 +102,7 @@ uint cluster_total() {
 #ifdef SHEXP_CLUSTER_PIXEL
     return ((frame.size.x + t - 1u) / t) * ((frame.size.y + t - 1u) / t);
 #else
-    return (frame.vertex_count + t * t - 1u) / (t * t);
+    return shx.vertex_clusters;
 #endif
 }
 

@@ -91,7 +91,7 @@ uint shexp_cluster_of_invocation() {
     uint tiles_x = (frame.size.x + t - 1u) / t;
     return (gl_GlobalInvocationID.y / t) * tiles_x + gl_GlobalInvocationID.x / t;
 #else
-    return gl_GlobalInvocationID.x / (t * t);
+    return vc_of[gl_GlobalInvocationID.x];
 #endif
 }
 

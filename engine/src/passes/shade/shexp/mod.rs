@@ -33,6 +33,7 @@ use engine_math::shexp::HYB_DEFAULT_TARGET;
 use engine_math::table_gen::MathTable;
 
 pub mod cpu;
+pub mod vertex_clusters;
 
 pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
@@ -110,7 +111,7 @@ pub const OPTIONS: &[OptionSpec] = &[
         aliases: &[],
         kind: Kind::Int { min: 0, max: 32 },
         default: Some("16"),
-        help: "receiver clusters T (SHEXP §6.3): per pixel T×T screen tiles, per vertex blocks of T² consecutive vertices; one θ_max cut per cluster from its bounding sphere, with ratio vectors W at its central point (0: a cut per receiver, no W; accumulate=log only)",
+        help: "receiver clusters T (SHEXP §6.3): per pixel T×T screen tiles, per vertex spatial groups of at most T² vertices of one instance; one θ_max cut per cluster from its bounding sphere, with ratio vectors W at its central point (0: a cut per receiver, no W; accumulate=log only)",
     },
     OptionSpec {
         key: "ratio_vectors",
@@ -125,7 +126,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "shexp",
     summary: "SH exponentiation (Ren et al. 2006): log-space sphere blockers, HYB/OL/PS* exp; diffuse only, glossy = unshadowed lobe × diffuse visibility ratio",
     options: OPTIONS,
-    reads: Reads { lights: true, blockers: true, thin: false, geometry: false },
+    reads: Reads { lights: true, blockers: true, thin: false, geometry: true },
     // Measured by tests/tests/techniques.rs at the defaults (order 4, HYB): furnace 4.65e-4 (the f32
     // projection of a constant map), no blockers vs `none` 2.89e-3 (the windowed order-4 lighting on
     // the sphere scene's smooth sky), one sphere 0.378 %, the ball above a half-space 0.023 % and above
@@ -255,7 +256,8 @@ pub struct GpuShexpParams {
     pub cluster: u32,
     /// 1: ratio vectors W (Eq. 37); 0: W = 1.
     pub ratio_vectors: u32,
-    pub pad0: u32,
+    /// Receiver clusters of the per-vertex target ([`vertex_clusters`]).
+    pub vertex_clusters: u32,
     pub pad1: u32,
     pub pad2: u32,
     pub h_star: [f32; 8],
@@ -266,6 +268,10 @@ struct Prepared {
     params: Buffer,
     env_sh: Buffer,
     tables: MathTables,
+    /// The per-vertex target's clusters ([`vertex_clusters::VertexClusters`]): offsets, items, cluster of
+    /// each vertex (one zero each without clusters, so the bindings are valid), and their count.
+    vertex_clusters: [Buffer; 3],
+    vertex_cluster_count: u32,
 }
 
 /// `SHEXP_CLUSTER_CAP` of shaders-glsl/shade/shexp/bindings.glsl: cut entries per receiver cluster.
@@ -281,7 +287,8 @@ const MAX_CLUSTER_BYTES: u64 = 1 << 30;
 /// 2D so that a million clusters stay within the device's 65,535 workgroups per dimension.
 const CLUSTERS_PER_ROW: u32 = 1024;
 
-/// The receiver clusters of `target` at side `t` (T×T pixel tiles or blocks of T² vertices); 0 for `t = 0`.
+/// The receiver clusters of `target` at side `t` (T×T pixel tiles; for vertices, blocks of T² as an upper
+/// bound: the technique uses its spatial [`vertex_clusters`]); 0 for `t = 0`.
 pub fn cluster_count(target: &ShadeTarget, t: u32) -> u32 {
     if t == 0 {
         return 0;
@@ -404,7 +411,7 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         sin_theta_min: o.theta_min_deg.to_radians().sin() as f32,
         cluster: o.cluster_side(),
         ratio_vectors: o.ratio_vectors as u32,
-        pad0: 0,
+        vertex_clusters: 0,
         pad1: 0,
         pad2: 0,
         h_star,
@@ -438,8 +445,26 @@ impl Shexp {
         if let Some(p) = self.prepared.take() {
             gpu.destroy_buffer(p.params);
             gpu.destroy_buffer(p.env_sh);
+            for b in p.vertex_clusters {
+                gpu.destroy_buffer(b);
+            }
             p.tables.destroy(gpu);
         }
+    }
+
+    /// The per-vertex clusters of the scene's vertices (object space, read back once from the static vertex
+    /// buffer), at most `max_size` each.
+    fn vertex_clusters(
+        &self,
+        gpu: &Gpu,
+        inputs: &ShadeInputs,
+        max_size: usize,
+    ) -> Result<vertex_clusters::VertexClusters> {
+        let geometry = inputs.geometry()?;
+        let mut v: Vec<crate::resources::layout::GpuVertex> = gpu.read_buffer(&geometry.vertices)?;
+        v.truncate(geometry.vertex_count as usize);
+        let points: Vec<([f32; 3], u32)> = v.iter().map(|x| (x.position, x.instance.max(0.0) as u32)).collect();
+        Ok(vertex_clusters::partition(&points, max_size))
     }
 
     /// The cluster pass for the target, created on first use.
@@ -533,17 +558,47 @@ impl Technique for Shexp {
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let ol = tables.get(MathTable::ShOl(o.order)).map(|t| t.header.axes[0].hi).unwrap_or(0.0);
         let gamma = tables.get(MathTable::ShGamma(o.order)).map(|t| t.header.entry_count() as u32).unwrap_or(0);
-        let p = params(o, inputs.blockers()?.sphere_count, ol, gamma);
+        let clusters = match o.cluster_side() {
+            0 => vertex_clusters::VertexClusters { offsets: vec![0], items: vec![0], cluster_of: vec![0] },
+            t => match self.vertex_clusters(gpu, inputs, (t * t) as usize) {
+                Ok(c) => c,
+                Err(e) => {
+                    tables.destroy(gpu);
+                    return Err(e);
+                }
+            },
+        };
+        let mut p = params(o, inputs.blockers()?.sphere_count, ol, gamma);
+        p.vertex_clusters = clusters.count() as u32;
         let env = environment_sh(&inputs.environment.cpu, o);
+        let nonempty = |v: &[u32]| if v.is_empty() { vec![0u32] } else { v.to_vec() };
         let made = crate::resources::make_buffers(
             gpu,
-            [&|| gpu.upload_buffer("shexp-params", BufferDesc::gpu_only(0), std::slice::from_ref(&p)), &|| {
-                gpu.upload_buffer("shexp-env-sh", BufferDesc::gpu_only(0), &env)
-            }],
+            [
+                &|| gpu.upload_buffer("shexp-params", BufferDesc::gpu_only(0), std::slice::from_ref(&p)),
+                &|| gpu.upload_buffer("shexp-env-sh", BufferDesc::gpu_only(0), &env),
+                &|| gpu.upload_buffer("shexp-vertex-cluster-offsets", BufferDesc::gpu_only(0), &clusters.offsets),
+                &|| {
+                    gpu.upload_buffer("shexp-vertex-cluster-items", BufferDesc::gpu_only(0), &nonempty(&clusters.items))
+                },
+                &|| {
+                    gpu.upload_buffer(
+                        "shexp-vertex-cluster-of",
+                        BufferDesc::gpu_only(0),
+                        &nonempty(&clusters.cluster_of),
+                    )
+                },
+            ],
         );
         match made {
-            Ok([params, env_sh]) => {
-                self.prepared = Some(Prepared { params, env_sh, tables });
+            Ok([params, env_sh, offsets, items, cluster_of]) => {
+                self.prepared = Some(Prepared {
+                    params,
+                    env_sh,
+                    tables,
+                    vertex_clusters: [offsets, items, cluster_of],
+                    vertex_cluster_count: p.vertex_clusters,
+                });
                 Ok(())
             }
             Err(e) => {
@@ -568,7 +623,10 @@ impl Technique for Shexp {
         let blockers = inputs.blockers()?;
         let stats = self.stats.as_ref().ok_or_else(|| GpuError::Other("shexp: stats missing".into()))?;
         let side = self.options.cluster_side();
-        let clusters = cluster_count(&target, side);
+        let clusters = match target {
+            ShadeTarget::Vertex { .. } if side > 0 => p.vertex_cluster_count,
+            _ => cluster_count(&target, side),
+        };
         self.ensure_cluster_buffers(rec.gpu(), clusters, blockers.sphere_count)?;
         let all = self.clusters.borrow();
         let cb = all.last().ok_or_else(|| GpuError::Other("internal: shexp cluster buffers missing".into()))?;
@@ -582,6 +640,8 @@ impl Technique for Shexp {
                 Binding::buffer("ClusterCut", &cb.cut),
                 Binding::buffer("ClusterPool", &cb.pool),
                 Binding::buffer("ShexpStats", stats),
+                Binding::buffer("VertexClusterOffsets", &p.vertex_clusters[0]),
+                Binding::buffer("VertexClusterItems", &p.vertex_clusters[1]),
             ];
             let per_vertex = match target {
                 ShadeTarget::Pixel { gbuffer, .. } => {
@@ -611,6 +671,7 @@ impl Technique for Shexp {
                 Binding::buffer("ClusterHeads", &cb.heads),
                 Binding::buffer("ClusterCut", &cb.cut),
                 Binding::buffer("ShexpStats", stats),
+                Binding::buffer("VertexCluster", &p.vertex_clusters[2]),
                 Binding::sampled("prefiltered_env", &env.prefiltered),
                 Binding::sampled("irradiance_map", &env.irradiance),
                 Binding::buffer("ShGamma", table(MathTable::ShGamma(n))?),
