@@ -232,6 +232,12 @@ fn errors_after_gpu_set_up_print_alone() {
         .concat(),
         "not Blinn-Phong",
     );
+    // SHEXP receiver clusters of one pixel at 1920×1080 would need 6 GiB of cut lists: refused at the first
+    // frame's recording, before any list is allocated.
+    assert_error_alone(
+        &["--technique", "shexp:cluster=1", "--width", "1920", "--height", "1080", "--out", dir.to_str().unwrap()],
+        "use a larger cluster=T",
+    );
     // A full disk: the image write fails after every frame rendered.
     if Path::new("/dev/full").exists() {
         std::os::unix::fs::symlink("/dev/full", dir.join("full.exr")).unwrap();
