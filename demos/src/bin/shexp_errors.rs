@@ -254,7 +254,14 @@ fn run() -> Result<()> {
         // invert (engine::math::shexp::exp_exact, by eigen decomposition in f64).
         let exact_exp = |f: &[f64]| exp_exact(&twins[0].tensor, f);
         let mut stages: Vec<Vec<[f64; 3]>> = vec![Vec::new(); STAGES.len()];
+        // How far past OL's fitted range the logs go (OL clamps its (a, b) at the table's end).
+        let (mut beyond, mut largest) = (0usize, 0.0f64);
+        let ol_end = twins[1].ol.norms.last().copied().unwrap_or(0.0);
         for ((p, n), v) in receivers.iter().zip(&vis) {
+            let (f, _) = twins[0].log_visibility(*p, *n, &spheres);
+            let norm = f[1..].iter().map(|x| x * x).sum::<f64>().sqrt();
+            largest = largest.max(norm);
+            beyond += (norm > ol_end) as usize;
             let mut e_l = [0.0; 3];
             let mut v_n = vec![0.0; og.n * og.n];
             for (k, d) in grid.dirs.iter().enumerate() {
@@ -287,6 +294,10 @@ fn run() -> Result<()> {
             row.push((vs_true, vs_l));
         }
         let exp_vs_exact: Vec<f64> = (3..6).map(|s| rel_rmse(&stages[s], &stages[2])).collect();
+        eprintln!(
+            "order {order}: largest ‖f̂‖ {largest:.1}; {beyond} of {} receivers past OL's table end ({ol_end:.2})",
+            receivers.len()
+        );
         table.push((order, row, exp_vs_exact));
     }
     std::fs::write(args.out.join("errors.csv"), csv).context("writing errors.csv")?;
