@@ -97,9 +97,11 @@ fn grazing_shading_normals_every_technique() {
                 "{}: receiver pixel {i} is {rgb:?} (normal {n}, geometric {g})",
                 entry.name
             );
-            // The closed form: the reference traces the box's triangles, so the top face itself is its
-            // horizon; the others see the whole constant environment.
-            let want_l = if entry.reads.geometry { rho_l * (1.0 + n.dot(g)) / 2.0 } else { rho_l };
+            // The closed form: the reference (the Monte Carlo entry) traces the box's triangles, so the top
+            // face itself is its horizon; the others see the whole constant environment. (Reading the
+            // geometry is not the criterion: `shexp` reads the vertices to cluster them.)
+            let triangles = entry.tolerances.samples > 0;
+            let want_l = if triangles { rho_l * (1.0 + n.dot(g)) / 2.0 } else { rho_l };
             for c in rgb {
                 sum_got += c as f64;
                 sum_want += want_l;

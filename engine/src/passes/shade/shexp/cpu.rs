@@ -1,7 +1,8 @@
 //! The f64 twin of `shaders-glsl/shade/shexp/shade.glsl` per receiver (spheres, planes, diffuse):
 //! the same tables (read from the asset files the GPU uploads), the same §6.2 rules, the same exp
 //! methods (engine-math `shexp`), in f64. The GPU cut at `theta_max = 0` visits every leaf in the
-//! tangent half-space, which is what [`Twin::log_visibility`] does over the sphere list.
+//! tangent half-space, which is what [`Twin::log_visibility`] does over the sphere list. The receiver
+//! clusters' pass (clusters.glsl) has its twin in [`Twin::cluster_cut`] and [`Twin::visibility_clustered`].
 
 use super::{ExpChoice, ShexpOptions};
 use engine_blockers::bvh::GpuBvhNode;

@@ -1,7 +1,10 @@
 //! Technique `shexp` (shaders-glsl/shade/shexp): soft shadows by SH exponentiation (Ren et al. 2006).
 //!
-//! Per receiver: the blockers of a cut of the GPU sphere BVH by subtended angle θ_max (SHEXP Eq. 36;
-//! a node taken whole blocks as its bounding sphere: the GPU BVH has no ratio vectors), the SHEXP
+//! Per receiver: the blockers of a cut of the GPU sphere BVH by subtended angle θ_max (SHEXP Eq. 36),
+//! made once per receiver cluster (`cluster=T`, default 16: T×T pixel tiles or spatial groups of at
+//! most T² vertices, [`vertex_clusters`]) by the cluster pass (shaders-glsl/shade/shexp/clusters.glsl),
+//! each node taken whole scaled by its ratio vector W (Eq. 37–38; `cluster=0`: a cut per receiver, a
+//! node taken whole blocking as its bounding sphere), the SHEXP
 //! §6.2 rules (`blocker_for_receiver`: spheres behind the tangent plane culled, straddling ones
 //! shrunk, receivers inside handled), each blocker's circle log-visibility from the order-n table
 //! (`sh{n}_circle_log`, exact small-angle limit, knots at the clip's kinks) rotated to its direction
