@@ -42,6 +42,27 @@ fn decomposition_runs_and_its_stages_hang_together() {
 }
 
 #[test]
+fn per_vertex_receivers_run() {
+    let r = run(&[
+        "--scene",
+        "bunny",
+        "--per-vertex",
+        "--step",
+        "16",
+        "--orders",
+        "3",
+        "--out",
+        &std::env::temp_dir().join(format!("shexp-errors-v-{}", std::process::id())).to_string_lossy(),
+    ]);
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{}\n{stdout}", String::from_utf8_lossy(&r.stderr));
+    assert!(stdout.contains("per vertex"), "{stdout}");
+    let stages = row(&stdout, 3, 0);
+    assert_eq!(stages.len(), 11, "{stdout}");
+    assert!(stages.iter().all(|v| v.is_finite() && *v >= 0.0 && *v < 100.0), "{stages:?}");
+}
+
+#[test]
 fn bad_orders_are_refused() {
     let r = run(&["--orders", "2"]);
     assert!(!r.status.success());

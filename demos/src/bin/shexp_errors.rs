@@ -26,6 +26,7 @@ use engine::blockers::{BlockerPlane, Sphere};
 use engine::gpu::{Gpu, GpuDesc};
 use engine::math::envmap::{texel_solid_angle, LatLongMap};
 use engine::math::sh::{eval_basis, irradiance_weighting, project_latlong};
+use engine::math::shading::shading_normals;
 use engine::math::shexp::exp_exact;
 use engine::passes::shade::shexp::cpu::Twin;
 use engine::passes::shade::shexp::{ExpChoice, ShexpOptions};
@@ -52,9 +53,13 @@ struct Args {
     width: u32,
     #[arg(long, default_value_t = 60)]
     height: u32,
-    /// Use every STEP-th covered pixel.
+    /// Use every STEP-th covered pixel (or vertex).
     #[arg(long, default_value_t = 2)]
     step: usize,
+    /// Receivers are the scene's vertices (world space, after the frame's skinning; normals as the per-vertex
+    /// target turns them: towards the camera) instead of the covered pixels.
+    #[arg(long)]
+    per_vertex: bool,
     #[arg(long, default_value = "out/shexp_errors")]
     out: PathBuf,
 }
@@ -187,9 +192,17 @@ fn run() -> Result<()> {
     let settings =
         RenderSettings { width: args.width, height: args.height, technique: "none".into(), ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).context("renderer")?;
+    let per_vertex = args.per_vertex;
     let read = r.render(&gpu).map_err(anyhow::Error::from).and_then(|_| {
-        let pos = gpu.read_image_rgba32f(&r.gbuffer.position)?;
-        let nrm = gpu.read_image_rgba32f(&r.gbuffer.normal)?;
+        let (pos, nrm) = if per_vertex {
+            let mut v: Vec<engine::resources::layout::GpuVertex> = gpu.read_buffer(&r.scene.geometry.world_vertices)?;
+            v.truncate(r.scene.geometry.vertex_count as usize);
+            let pos: Vec<f32> = v.iter().flat_map(|x| [x.position[0], x.position[1], x.position[2], 1.0]).collect();
+            let nrm: Vec<f32> = v.iter().flat_map(|x| [x.normal[0], x.normal[1], x.normal[2], 0.0]).collect();
+            (pos, nrm)
+        } else {
+            (gpu.read_image_rgba32f(&r.gbuffer.position)?, gpu.read_image_rgba32f(&r.gbuffer.normal)?)
+        };
         let mut spheres = gpu.read_buffer::<[f32; 4]>(&r.scene.blockers.spheres)?;
         spheres.truncate(r.scene.blockers.sphere_count as usize);
         Ok((pos, nrm, spheres))
@@ -206,7 +219,16 @@ fn run() -> Result<()> {
         .step_by(args.step)
         .map(|(p, n)| {
             let v = |a: &[f32]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
-            (v(p), v(n).normalize())
+            let (p, n) = (v(p), v(n).normalize());
+            // Per vertex: the normal target_vertex.glsl shades with (shading_normals with the vertex normal as
+            // both normals: two-sided, towards the camera).
+            if per_vertex {
+                let view = (scene.camera.eye.as_dvec3() - p).normalize();
+                let (s, _) = shading_normals(n.to_array(), n.to_array(), view.to_array());
+                (p, DVec3::from_array(s).normalize())
+            } else {
+                (p, n)
+            }
         })
         .filter(|(p, n)| p.is_finite() && n.is_finite())
         .collect();
@@ -303,11 +325,10 @@ fn run() -> Result<()> {
     std::fs::write(args.out.join("errors.csv"), csv).context("writing errors.csv")?;
 
     println!(
-        "SHEXP error decomposition, {}{} ({}x{}, {} receivers), relative RMSE % of the shadowed irradiance",
+        "SHEXP error decomposition, {}{} ({}, {} receivers), relative RMSE % of the shadowed irradiance",
         args.scene,
         if args.smooth_sky { " under the smooth sky" } else { "" },
-        args.width,
-        args.height,
+        if args.per_vertex { "per vertex".to_string() } else { format!("{}x{} per pixel", args.width, args.height) },
         receivers.len()
     );
     println!("against E_true (full lighting, true sphere visibility); in parentheses against E_L (the same order-n lighting, true visibility: visibility error alone):");
