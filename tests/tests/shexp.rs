@@ -164,6 +164,16 @@ fn hard_blocker_sets_match_the_twin() {
     gpu.shutdown().expect("clean teardown");
 }
 
+/// 27 small spheres filling the ball (3 × 3 × 3), so that the BVH has nodes to take whole seen from the ground.
+fn cube_of_spheres() -> Vec<Sphere> {
+    (0..27)
+        .map(|i| {
+            let (x, y, z) = ((i % 3) as f64 - 1.0, ((i / 3) % 3) as f64 - 1.0, (i / 9) as f64 - 1.0);
+            Sphere::new(DVec3::new(x, y, z) * 0.55, 0.38)
+        })
+        .collect()
+}
+
 // Receiver clusters (SHEXP §6.3): 4×4-pixel tiles, one θ_max cut per tile from its bounding sphere, ratio
 // vectors W at its central point. The GPU against the twin's cluster pass (same node array, read back) and
 // per-pixel accumulation; then W's effect: the clustered image with W is closer to the leaves-only one
@@ -171,14 +181,7 @@ fn hard_blocker_sets_match_the_twin() {
 #[test]
 fn receiver_clusters_match_the_twin_and_ratio_vectors_help() {
     let gpu = engine_tests::gpu();
-    // 27 small spheres filling the ball, so that the BVH has nodes to take whole seen from the ground.
-    let local: Vec<Sphere> = (0..27)
-        .map(|i| {
-            let (x, y, z) = ((i % 3) as f64 - 1.0, ((i / 3) % 3) as f64 - 1.0, (i / 9) as f64 - 1.0);
-            Sphere::new(DVec3::new(x, y, z) * 0.55, 0.38)
-        })
-        .collect();
-    let (scene, _) = scene_with(local);
+    let (scene, _) = scene_with(cube_of_spheres());
     const T: usize = 4;
     let spec = format!("shexp:cluster={T}");
     let o = ShexpOptions { cluster: T as u32, ..ShexpOptions::default() };
@@ -257,13 +260,7 @@ fn per_vertex_clusters_match_the_twin() {
     use engine::renderer::Renderer;
     use engine::resources::layout::GpuVertex;
     let gpu = engine_tests::gpu();
-    let local: Vec<Sphere> = (0..27)
-        .map(|i| {
-            let (x, y, z) = ((i % 3) as f64 - 1.0, ((i / 3) % 3) as f64 - 1.0, (i / 9) as f64 - 1.0);
-            Sphere::new(DVec3::new(x, y, z) * 0.55, 0.38)
-        })
-        .collect();
-    let (scene, _) = scene_with(local);
+    let (scene, _) = scene_with(cube_of_spheres());
     const T: u32 = 4;
     let spec = format!("shexp:cluster={T}");
     let settings =
