@@ -142,3 +142,19 @@ fn tiny_sweep_runs_end_to_end() {
     assert_eq!((png.0, png.1), (sweep.width, sweep.height));
     let _ = std::fs::remove_dir_all(&out);
 }
+
+// Every named sweep of the shipped config loads: its technique specs parse against the registry (a typo in an
+// option of the `full` sweep would otherwise surface only hours into `cargo xtask report`), its scenes exist.
+#[test]
+fn every_shipped_sweep_loads() {
+    let path = report::default_config();
+    let text = std::fs::read_to_string(&path).expect("tools/report/sweep.json");
+    let names: Vec<String> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("  \"").and_then(|r| r.split_once("\": {")).map(|(name, _)| name.to_string()))
+        .collect();
+    assert!(names.len() >= 2 && names.iter().any(|n| n == "full"), "sweep names: {names:?}");
+    for name in &names {
+        report::load_sweep(&path, name).unwrap_or_else(|e| panic!("sweep '{name}': {e:#}"));
+    }
+}
