@@ -63,8 +63,18 @@ fn per_vertex_receivers_run() {
 }
 
 #[test]
-fn bad_orders_are_refused() {
-    let r = run(&["--orders", "2"]);
-    assert!(!r.status.success());
-    assert!(String::from_utf8_lossy(&r.stderr).contains("not an SH order in 3..=8"));
+fn bad_arguments_are_refused() {
+    for (args, needle) in [
+        (&["--orders", "2"][..], "not an SH order in 3..=8"),
+        (&["--orders", "9"][..], "not an SH order in 3..=8"),
+        (&["--step", "0"][..], "must be positive"),
+        (&["--width", "0"][..], "must be positive"),
+        (&["--env", "/no/such/sky.exr"][..], "sky.exr"),
+        (&["--env", "x.exr", "--smooth-sky"][..], "cannot be used with"),
+    ] {
+        let r = run(args);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(matches!(r.status.code(), Some(1 | 2)), "{args:?}: {:?}\n{stderr}", r.status);
+        assert!(stderr.contains(needle) && !stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
 }

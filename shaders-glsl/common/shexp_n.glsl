@@ -145,18 +145,8 @@ void shn_circle_fstar(float u, out float fstar[SH_MAX_ORDER]) {
     }
 }
 
-// Add the log-visibility of a circle (u = 1 − cos θ) about unit `axis` to f (SHEXP Eq. 34).
-void shn_add_circle_log(inout float f[SHN_C], float u, vec3 axis) {
-    float fstar[SH_MAX_ORDER];
-    shn_circle_fstar(u, fstar);
-    float y[SH_MAX_COEFFS];
-    sh_eval(axis, SHEXP_N, y);
-    for (int l = 0; l < SHEXP_N; ++l) {
-        for (int i = l * l; i < (l + 1) * (l + 1); ++i) f[i] += fstar[l] * y[i];
-    }
-}
-
-// The same scaled per band by a ratio vector W (SHEXP Eq. 38: f = W F(θ) y(s)), w_l = w[l].
+// Add the log-visibility of a circle (u = 1 − cos θ) about unit `axis` to f (SHEXP Eq. 34), scaled per band by
+// a ratio vector W (SHEXP Eq. 38: f = W F(θ) y(s)), w_l = w[l].
 void shn_add_circle_log_weighted(inout float f[SHN_C], float u, vec3 axis, float w[8]) {
     float fstar[SH_MAX_ORDER];
     shn_circle_fstar(u, fstar);
@@ -166,6 +156,11 @@ void shn_add_circle_log_weighted(inout float f[SHN_C], float u, vec3 axis, float
         float a = w[l] * fstar[l];
         for (int i = l * l; i < (l + 1) * (l + 1); ++i) f[i] += a * y[i];
     }
+}
+
+// The same unscaled (W = 1).
+void shn_add_circle_log(inout float f[SHN_C], float u, vec3 axis) {
+    shn_add_circle_log_weighted(f, u, axis, float[8](1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0));
 }
 
 // u = 1 − cos θ of a sphere blocker b seen from p (sin θ = r/d), without cancellation; 1 (the

@@ -13,7 +13,7 @@
 //! - **exp method**: exact exp* replaced by HYB, OL or PS*-2 — the twin's whole per-receiver pipeline
 //!   (leaves only: no cut, no clusters).
 //!
-//! Every integral is a sum over the texel centres of the environment averaged down to 256×128 texels
+//! Every integral is a sum over the texel centres of the environment box-filtered down to about 256 columns
 //! (solid-angle weights). Output: a table (relative RMSE % against E_true, and against E_L: the visibility
 //! error alone under the same order-n lighting), `errors.csv` and `errors.svg` in `--out`.
 //!
@@ -25,9 +25,10 @@ use engine::blockers::geom::blocker_for_receiver;
 use engine::blockers::{BlockerPlane, Sphere};
 use engine::gpu::{Gpu, GpuDesc};
 use engine::math::envmap::{texel_solid_angle, LatLongMap};
-use engine::math::sh::{eval_basis, irradiance_weighting, project_latlong};
+use engine::math::sh::{dot, eval_basis, irradiance_weighting, project_latlong};
 use engine::math::shading::shading_normals;
 use engine::math::shexp::exp_exact;
+use engine::metrics::sqrt_ratio;
 use engine::passes::shade::shexp::cpu::Twin;
 use engine::passes::shade::shexp::{ExpChoice, ShexpOptions};
 use engine::renderer::{RenderSettings, Renderer};
@@ -71,40 +72,36 @@ struct Grid {
     radiance: Vec<[f64; 3]>,
 }
 
-const GRID_W: usize = 256;
-const GRID_H: usize = 128;
+/// The integration grid's smallest width: the map is box-filtered down by the largest factor that divides both
+/// its sides and keeps at least this many columns.
+const GRID_MIN_W: usize = 256;
 
-/// The environment averaged (by solid angle) onto GRID_W × GRID_H texels: each source texel goes to the
-/// coarse texel holding its centre, so the map's integral is kept.
+/// The environment on a lat-long grid of about GRID_MIN_W columns, as texel-centre directions, solid angles and
+/// radiance: a larger map averaged down (solid-angle weighted, `LatLongMap::downsample`: the integral is kept), a
+/// smaller one sampled bilinearly at the grid's centres (as the GPU's sampler reads it), so that visibility is
+/// resolved as finely either way.
 fn grid_of(env: &LatLongMap) -> Grid {
-    let mut sum = vec![[0.0f64; 3]; GRID_W * GRID_H];
-    let mut area = vec![0.0f64; GRID_W * GRID_H];
-    for row in 0..env.height {
-        let w = texel_solid_angle(row, env.width, env.height);
-        let r = (row * GRID_H) / env.height;
-        for col in 0..env.width {
-            let c = (col * GRID_W) / env.width;
-            let t = env.texel(col, row);
-            let k = r * GRID_W + c;
-            (0..3).for_each(|i| sum[k][i] += w * t[i] as f64);
-            area[k] += w;
+    let coarse = if env.width < GRID_MIN_W {
+        let mut g = LatLongMap::constant(GRID_MIN_W, GRID_MIN_W / 2, [0.0; 3]);
+        for r in 0..g.height {
+            for c in 0..g.width {
+                g.texels[r * g.width + c] = env.lookup_bilinear(g.texel_direction(c, r)).map(|v| v as f32);
+            }
         }
-    }
-    let coarse = LatLongMap::constant(GRID_W, GRID_H, [0.0; 3]);
+        g
+    } else {
+        let factor = (1..=env.width / GRID_MIN_W)
+            .rev()
+            .find(|f| env.width.is_multiple_of(*f) && env.height.is_multiple_of(*f))
+            .unwrap_or(1);
+        env.downsample(factor)
+    };
     let mut g = Grid { dirs: Vec::new(), weights: Vec::new(), radiance: Vec::new() };
-    for r in 0..GRID_H {
-        for c in 0..GRID_W {
-            let k = r * GRID_W + c;
-            let a = texel_solid_angle(r, GRID_W, GRID_H);
-            // A coarse texel that no source texel centre fell in (a map smaller than the grid) samples it.
-            let l = if area[k] > 0.0 {
-                sum[k].map(|v| v / area[k])
-            } else {
-                env.lookup_bilinear(coarse.texel_direction(c, r))
-            };
+    for r in 0..coarse.height {
+        for c in 0..coarse.width {
             g.dirs.push(DVec3::from_array(coarse.texel_direction(c, r)));
-            g.weights.push(a);
-            g.radiance.push(l);
+            g.weights.push(texel_solid_angle(r, coarse.width, coarse.height));
+            g.radiance.push(coarse.texel(c, r).map(f64::from));
         }
     }
     g
@@ -148,10 +145,6 @@ fn visibility(grid: &Grid, p: DVec3, n: DVec3, spheres: &[Sphere], planes: &[Blo
         .collect()
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 /// Relative RMSE of `a` against `b` over every receiver and channel.
 fn rel_rmse(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -161,7 +154,7 @@ fn rel_rmse(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
             den += y[c] * y[c];
         }
     }
-    (num / den.max(1e-300)).sqrt()
+    sqrt_ratio(num, den)
 }
 
 /// The stages at one order, one row per receiver: E_L, E_V, E_log, HYB, OL, PS*-2.
@@ -236,6 +229,9 @@ fn run() -> Result<()> {
         bail!("no covered pixel in the frame");
     }
     let env = &scene.environment;
+    if env.width == 0 || env.height == 0 {
+        bail!("the environment map is empty");
+    }
     let grid = grid_of(env);
     eprintln!(
         "{}: {} receivers, {} spheres, {} planes, {} directions; true visibility...",
