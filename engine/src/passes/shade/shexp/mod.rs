@@ -361,6 +361,8 @@ pub struct Shexp {
     clusters: std::cell::RefCell<Vec<ClusterBuffers>>,
     stats: Option<Buffer>,
     frames: std::cell::Cell<u64>,
+    /// The per-vertex clusters, keyed by (vertex count, largest cluster), computed on the first `prepare`.
+    partition: Option<((u32, usize), vertex_clusters::VertexClusters)>,
     pub options: ShexpOptions,
     prepared: Option<Prepared>,
 }
@@ -439,6 +441,7 @@ impl Shexp {
             clusters: std::cell::RefCell::new(Vec::new()),
             stats: None,
             frames: std::cell::Cell::new(0),
+            partition: None,
             options,
             prepared: None,
         })
@@ -457,17 +460,27 @@ impl Shexp {
 
     /// The per-vertex clusters of the scene's vertices (object space, read back once from the static vertex
     /// buffer), at most `max_size` each.
+    /// Kept across `prepare`s (an environment turn prepares again, every frame under `--env-spin`): a technique
+    /// serves one renderer, whose object-space vertices never change.
     fn vertex_clusters(
-        &self,
+        &mut self,
         gpu: &Gpu,
         inputs: &ShadeInputs,
         max_size: usize,
     ) -> Result<vertex_clusters::VertexClusters> {
         let geometry = inputs.geometry()?;
+        let key = (geometry.vertex_count, max_size);
+        if let Some((k, c)) = &self.partition {
+            if *k == key {
+                return Ok(c.clone());
+            }
+        }
         let mut v: Vec<crate::resources::layout::GpuVertex> = gpu.read_buffer(&geometry.vertices)?;
         v.truncate(geometry.vertex_count as usize);
         let points: Vec<([f32; 3], u32)> = v.iter().map(|x| (x.position, x.instance.max(0.0) as u32)).collect();
-        Ok(vertex_clusters::partition(&points, max_size))
+        let c = vertex_clusters::partition(&points, max_size);
+        self.partition = Some((key, c.clone()));
+        Ok(c)
     }
 
     /// The cluster pass for the target, created on first use.
@@ -556,7 +569,8 @@ impl Technique for Shexp {
         if self.stats.is_none() {
             self.stats = Some(gpu.upload_buffer("shexp-stats", BufferDesc::gpu_only(0), &[0u32; 8])?);
         }
-        let o = &self.options;
+        let o = self.options.clone();
+        let o = &o;
         let tables = MathTables::load(gpu, &crate::tables::default_dir(), &tables_of(o.order))
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let ol = tables.get(MathTable::ShOl(o.order)).map(|t| t.header.axes[0].hi).unwrap_or(0.0);
