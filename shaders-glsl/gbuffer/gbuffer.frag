@@ -2,7 +2,7 @@
 #extension GL_GOOGLE_include_directive : require
 // G-buffer: world position (w = material + 1; 0 marks background), the shading normal facing the
 // viewer (meshes are two-sided), interpolated per-vertex radiance, and the geometric normal facing
-// the viewer (the side rays leave from). Both normals come from common/shading.glsl: the side is the
+// the viewer (the side rays leave from; w = the index of the triangle's first vertex, as a float). Both normals come from common/shading.glsl: the side is the
 // geometric normal's, and a shading normal that faces away from the viewer where the triangle faces
 // it (silhouettes of smooth meshes) is bent back (shading normal adaptation) rather than flipped into
 // the mesh.
@@ -13,6 +13,7 @@ layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
 layout(location = 2) flat in float in_material;
 layout(location = 3) in vec3 in_radiance;
+layout(location = 4) flat in float in_vertex;
 layout(location = 0) out vec4 gbuf_position;
 layout(location = 1) out vec4 gbuf_normal;
 layout(location = 2) out vec4 gbuf_vertex_radiance;
@@ -37,5 +38,5 @@ void main() {
     gbuf_position = vec4(in_position, in_material + 1.0);
     gbuf_normal = vec4(shading, 1.0);
     gbuf_vertex_radiance = vec4(in_radiance, 1.0);
-    gbuf_geometric = vec4(geometric, 1.0);
+    gbuf_geometric = vec4(geometric, in_vertex);
 }

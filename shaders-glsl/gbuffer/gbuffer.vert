@@ -1,6 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Vertex pulling from the world-space vertex buffer; also interpolates per-vertex radiance.
+// Vertex pulling from the world-space vertex buffer; also interpolates per-vertex radiance and passes the
+// triangle's first vertex index (exact as a float up to 2^24 vertices).
 #include "../common/scene.glsl"
 layout(std430, binding = 0) readonly buffer WorldVertices { Vertex world[]; };
 layout(std430, binding = 1) readonly buffer FrameBuf { FrameData frame; };
@@ -9,6 +10,8 @@ layout(location = 0) out vec3 out_position;
 layout(location = 1) out vec3 out_normal;
 layout(location = 2) flat out float out_material;
 layout(location = 3) out vec3 out_radiance;
+// The vertex's index: flat, so a fragment gets its triangle's first (provoking) vertex.
+layout(location = 4) flat out float out_vertex;
 
 void main() {
     Vertex v = world[gl_VertexIndex];
@@ -23,4 +26,5 @@ void main() {
     out_normal = v.normal.xyz;
     out_material = v.material;
     out_radiance = vertex_radiance[gl_VertexIndex].rgb;
+    out_vertex = float(gl_VertexIndex);
 }

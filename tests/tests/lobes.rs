@@ -438,3 +438,47 @@ fn fitted_weights_have_not_drifted_and_the_gpu_applies_them() {
     check(&errs, "lobes:weights=fitted", "one sphere, one light", 2e-3, 0.05);
     gpu.shutdown().expect("clean teardown");
 }
+
+/// Option `phase` (the paper's Table 1 split): each variant stops every receiver after its phase and does
+/// the earlier phases' work in full. On `lamp-one` (environment, one light, 64 spheres) at 24 × 18: every
+/// variant renders finite values; the quad-tree phases count the same shadow leaves as the whole technique
+/// (`mask`, `leaves`), the earlier ones none; only `all` computes the visibility products; and the image of
+/// `all` is the default's.
+#[test]
+fn phase_variants_stop_after_their_phase() {
+    let gpu = engine_tests::gpu();
+    let scene = demos::scenes::build("lamp-one", None).expect("scene");
+    let mut runs = Vec::new();
+    for phase in engine::passes::shade::lobes::PHASES.iter().map(|p| format!("lobes:phase={p}")).chain(["lobes".into()])
+    {
+        let settings = RenderSettings { width: 24, height: 18, technique: phase.clone(), ..Default::default() };
+        let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
+        r.render(&gpu).expect("frame");
+        let image = r.read_radiance(&gpu).expect("radiance");
+        let report = r.technique_report(&gpu).expect("report");
+        r.destroy(&gpu);
+        engine_tests::assert_finite(&image, &phase);
+        // "lobes: per shaded receiver P lobe products, … , L shadow leaves (N receivers)"
+        let line = report.counts.first().cloned().unwrap_or_default();
+        let number_before = |word: &str| -> f64 {
+            let head = &line[..line.find(word).unwrap_or_else(|| panic!("{phase}: no '{word}' in {line:?}"))];
+            head.split_whitespace().last().unwrap().parse().unwrap()
+        };
+        let (products, leaves) = (number_before(" lobe products"), number_before(" shadow leaves"));
+        eprintln!("{phase}: {products} products, {leaves} leaves per receiver");
+        runs.push((phase, products, leaves, image));
+    }
+    let [lobes, gather, mask, leaves, all, default] = &runs[..] else { panic!("six runs") };
+    assert_eq!(all.3, default.3, "phase=all is the technique's image");
+    assert!(mask.2 > 10.0, "the masks have shadow leaves: {}", mask.2);
+    for r in [lobes, gather] {
+        assert_eq!(r.2, 0.0, "{}: no quad-tree, no leaves", r.0);
+    }
+    for r in [mask, leaves] {
+        assert_eq!(r.2, all.2, "{}: the same quad-trees as the technique", r.0);
+    }
+    for r in [lobes, gather, mask, leaves] {
+        assert!(r.1 < 3.0 && r.1 < all.1 / 10.0, "{}: {} products (R × L only), all: {}", r.0, r.1, all.1);
+    }
+    gpu.shutdown().expect("clean teardown");
+}

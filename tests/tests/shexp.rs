@@ -252,11 +252,12 @@ fn receiver_clusters_match_the_twin_and_ratio_vectors_help() {
 }
 
 // Receiver clusters per vertex: spatial groups of at most T² vertices of one instance (vertex_clusters.rs, from
-// the object-space vertex buffer), one cut per group. The GPU's per-vertex radiance against the twin's cluster
-// pass over the same groups (the partition recomputed from the same buffer), at every 3rd vertex.
+// the vertex buffer under the instances' transforms), one cut per group. The GPU's per-vertex radiance
+// against the twin's cluster pass over the same groups (the technique's partition function on the same
+// buffers), at every 3rd vertex.
 #[test]
 fn per_vertex_clusters_match_the_twin() {
-    use engine::passes::shade::shexp::vertex_clusters::partition;
+    use engine::passes::shade::shexp::scene_clusters;
     use engine::renderer::Renderer;
     use engine::resources::layout::GpuVertex;
     let gpu = engine_tests::gpu();
@@ -274,15 +275,14 @@ fn per_vertex_clusters_match_the_twin() {
         v.truncate(count);
         v
     };
-    let (object, world) = (read(&g.vertices), read(&g.world_vertices));
+    let world = read(&g.world_vertices);
     let mut radiance: Vec<[f32; 4]> = gpu.read_buffer(&g.vertex_radiance).expect("radiance");
     radiance.truncate(count);
     let n = r.scene.blockers.sphere_count as usize;
     let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
     nodes.truncate(2 * n - 1);
+    let (clusters, _) = scene_clusters(&gpu, g, (T * T) as usize).expect("clusters");
     r.destroy(&gpu);
-    let points: Vec<([f32; 3], u32)> = object.iter().map(|v| (v.position, v.instance as u32)).collect();
-    let clusters = partition(&points, (T * T) as usize);
     assert!(clusters.count() > 10, "{} clusters", clusters.count());
     let o = ShexpOptions { cluster: T, ..ShexpOptions::default() };
     let twin = Twin::new(&o, &scene.environment).expect("twin tables");
@@ -315,6 +315,83 @@ fn per_vertex_clusters_match_the_twin() {
     errs.sort_by(f64::total_cmp);
     // Measured: p95 5.2e-7, max 1.6e-5 of the unshadowed value.
     check(&errs, &spec, "per-vertex clusters", 1e-5, 1e-4);
+    gpu.shutdown().expect("clean teardown");
+}
+
+// World-space receiver clusters per pixel (pixel_clusters=world): a pixel joins the vertex cluster of its
+// triangle's first vertex (the G-buffer's geometric w), whose bounding sphere grows by the cluster's reach.
+// The GPU's pixels against the twin's cluster pass over the same vertex clusters, grown by the same reach.
+#[test]
+fn world_pixel_clusters_match_the_twin() {
+    use engine::passes::shade::shexp::scene_clusters;
+    use engine::renderer::Renderer;
+    use engine::resources::layout::GpuVertex;
+    let gpu = engine_tests::gpu();
+    let (scene, _) = scene_with(cube_of_spheres());
+    const T: u32 = 4;
+    let spec = format!("shexp:cluster={T},pixel_clusters=world");
+    let settings = RenderSettings { width: W, height: H, technique: spec.clone(), ..Default::default() };
+    let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
+    r.render(&gpu).expect("frame");
+    let hdr = r.read_radiance(&gpu).expect("radiance");
+    assert_finite(&hdr, &spec);
+    let image = |i| gpu.read_image_rgba32f(i).expect("g-buffer");
+    let (pos, nrm, geo) = (image(&r.gbuffer.position), image(&r.gbuffer.normal), image(&r.gbuffer.geometric));
+    let g = &r.scene.geometry;
+    let mut world: Vec<GpuVertex> = gpu.read_buffer(&g.world_vertices).expect("vertices");
+    world.truncate(g.vertex_count as usize);
+    let n = r.scene.blockers.sphere_count as usize;
+    let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
+    nodes.truncate(2 * n - 1);
+    let (clusters, reach) = scene_clusters(&gpu, g, (T * T) as usize).expect("clusters");
+    r.destroy(&gpu);
+    let o = ShexpOptions { cluster: T, world_pixel_clusters: true, ..ShexpOptions::default() };
+    let twin = Twin::new(&o, &scene.environment).expect("twin tables");
+    let cuts: Vec<_> = (0..clusters.count())
+        .map(|c| {
+            let members = &clusters.items[clusters.offsets[c] as usize..clusters.offsets[c + 1] as usize];
+            let items: Vec<DVec3> =
+                members.iter().map(|&v| Vec3::from_array(world[v as usize].position).as_dvec3()).collect();
+            twin.cluster_cut_grown(&nodes, n as u32, &items, reach[c] as f64).expect("no overflow here")
+        })
+        .collect();
+    let albedo = [0.7, 0.8];
+    let (mut errs, mut outside, mut covered) = (Vec::new(), 0, 0);
+    for i in 0..(W * H) as usize {
+        let px = &pos[4 * i..4 * i + 4];
+        if px[3] < 0.5 {
+            continue;
+        }
+        covered += 1;
+        let p = DVec3::new(px[0] as f64, px[1] as f64, px[2] as f64);
+        let nn = DVec3::new(nrm[4 * i] as f64, nrm[4 * i + 1] as f64, nrm[4 * i + 2] as f64).normalize();
+        let m = (px[3] - 0.5) as usize;
+        let vertex = geo[4 * i + 3];
+        assert!(
+            vertex >= 0.0 && vertex.fract() == 0.0 && (vertex as usize) < world.len(),
+            "pixel {i}: vertex {vertex}"
+        );
+        let c = clusters.cluster_of[vertex as usize] as usize;
+        let cut = &cuts[c];
+        let d = p.distance(cut.receiver.center);
+        assert!(d <= cut.receiver.radius * (1.0 + 1e-5) + 1e-5, "pixel {i} lies outside its grown cluster sphere");
+        if d > cut.receiver.radius - reach[c] as f64 {
+            outside += 1;
+        }
+        let (v, count) = twin.visibility_clustered(p, nn, cut, &scene.blockers.planes);
+        let (want, free) = twin.shade_diffuse_with(&v, count, nn, [albedo[m]; 3]);
+        let got = rgb(&hdr, i);
+        for ch in 0..3 {
+            errs.push((got[ch] - want[ch]).abs() / (albedo[m] * free[ch]).abs().max(1e-6));
+        }
+    }
+    eprintln!(
+        "{covered} pixels in {} world clusters, {outside} of them outside their cluster's vertices' sphere",
+        cuts.len()
+    );
+    assert!(outside > 0, "the test must exercise the reach");
+    errs.sort_by(f64::total_cmp);
+    check(&errs, &spec, "world pixel clusters", 1e-5, 1e-4);
     gpu.shutdown().expect("clean teardown");
 }
 

@@ -1,5 +1,6 @@
 //! `gbuffer` pass (shaders-glsl/gbuffer): raster into depth, world position (w = material + 1,
-//! 0 = background), shading normal, interpolated per-vertex radiance and geometric normal. Both
+//! 0 = background), shading normal, interpolated per-vertex radiance and geometric normal (w = the
+//! index of the triangle's first vertex, as an f32: exact up to 2²⁴ vertices). Both
 //! normals face the viewer: the side is the geometric normal's and the shading normal is adapted
 //! where it would face away (shaders-glsl/common/shading.glsl, twin `engine::math::shading`).
 
@@ -15,7 +16,8 @@ pub struct GBuffer {
     pub normal: Image,
     pub vertex_radiance: Image,
     /// The triangle's geometric normal (xyz, unit, facing the viewer): the side the reference's rays
-    /// leave from.
+    /// leave from; w: the index of the triangle's first (provoking) vertex, as an f32 (`shexp`'s
+    /// `pixel_clusters=world` finds a pixel's vertex cluster by it).
     pub geometric: Image,
     pub depth: Image,
 }

@@ -40,6 +40,15 @@
 #include "../../common/frame.glsl"
 #define BVH_STACK_SIZE 32
 #include "../../common/bvh.glsl"
+// The cost split of option `phase` (the paper's Table 1; a timing variant, not an image): every receiver
+// stops after phase 1 lobes (reflectance and light lobes, R × L, U and the unshadowed terms), 2 gather (+ the
+// blocker cuts of every mask), 3 mask (+ the quad-trees' classification, leaves counted), 4 leaves (+ the
+// shadow leaves' cap lobes and weights) or 5 all (+ the visibility products and their hemisphere integrals:
+// the image). The work a stopped phase did stays live through a term of 1e-30 in the result, so that the
+// compiler keeps it.
+#ifndef LOBES_PHASE
+#define LOBES_PHASE 5
+#endif
 #include "../../common/planes.glsl"
 
 layout(binding = 8) uniform sampler2D irradiance_map;
@@ -395,12 +404,20 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         float leaf_weight = (state == 1 && lp.conservative == 2u) ? 0.5 : 1.0;
         // A shadow leaf: the cap lobe of its bounding cone, w_i = weight Ω_cell / ∫c_i.
         leaves += 1u;
+#if LOBES_PHASE < 4
+        shadow += vec3(gamma * 1e-30);
+        continue;
+#endif
         float omega = lobes_triangle_solid_angle(raw[0], raw[1], raw[2]) + lobes_triangle_solid_angle(raw[0], raw[2], raw[3]);
         Lobe c;
         c.axis = centre;
         c.e = lobes_cap_exponent(gamma);
         float w_d = env ? 1.0 : lp.light_weights[d];
         c.s = vec3(leaf_weight * lp.weight * w_d * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
+#if LOBES_PHASE < 5
+        shadow += c.s * c.e * 1e-30;
+        continue;
+#endif
         for (int k = 0; k < rl_count; ++k) {
             Lobe pr = lobes_mul(rl[k], c);
             products += 1u;
@@ -474,8 +491,14 @@ vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout 
     float tan_half = tan(LOBES_MASK_MAX_HALF_ANGLE);
     g_blocker_count = 0u;
     g_overflow = false;
+#if LOBES_PHASE < 2
+    return vec3(u * 1e-30);
+#endif
     if (lp.sphere_count > 0u) lobes_gather(p, n, n, tan_half, lp.depth + 1u);
     if (g_overflow) overflow |= 1u;
+#if LOBES_PHASE < 3
+    return vec3(float(g_blocker_count) * 1e-30);
+#endif
     g_p = p;
     vec3 t, b;
     orthonormal_basis(n, t, b);
@@ -542,7 +565,7 @@ vec3 shade_point(ShadePoint sp) {
             }
             float u_lum = lobes_lum(u);
             vec3 s = vec3(0.0);
-            if (u_lum > 0.0 && (lp.sphere_count > 0u || plane_count > 0u)) {
+            if (LOBES_PHASE >= 2 && u_lum > 0.0 && (lp.sphere_count > 0u || plane_count > 0u)) {
                 float half_angle = min(lp.extent * alpha, LOBES_MASK_MAX_HALF_ANGLE);
                 float tan_half = tan(half_angle);
                 g_blocker_count = 0u;
@@ -552,8 +575,12 @@ vec3 shade_point(ShadePoint sp) {
                 g_p = p;
                 vec3 t, b;
                 orthonormal_basis(axis, t, b);
-                bool hidden;
+                bool hidden = false;
+#if LOBES_PHASE < 3
+                s = vec3(float(g_blocker_count) * 1e-30);
+#else
                 s = lobes_shadow(rl, r_count, n, axis, t, b, tan_half, u_lum, true, false, lp.depth, products, pruned, leaves, hidden);
+#endif
                 if (hidden) s = u;
             }
             float vis = u_lum > 0.0 ? clamp(1.0 - lobes_lum(s) / u_lum, 0.0, 1.0) : 1.0;

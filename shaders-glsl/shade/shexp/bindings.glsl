@@ -31,7 +31,7 @@ struct ShexpParams {
     uint cluster;          // receiver clusters (SHEXP §6.3): tile side T (0: a cut per receiver)
     uint ratio_vectors;    // 1: W from Eq. 37; 0: W = 1 (the cut's nodes block as their bounding spheres)
     uint vertex_clusters;  // clusters of the per-vertex target (VertexCluster* below)
-    uint pad1;
+    uint pixel_world;      // 1: per pixel, the vertex clusters (pixel_clusters=world)
     uint pad2;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
     vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
@@ -70,6 +70,9 @@ layout(std430, binding = 25) buffer ClusterPool { uint cluster_pool_used; };
 layout(std430, binding = 26) readonly buffer VertexClusterOffsets { uint vc_offsets[]; };
 layout(std430, binding = 27) readonly buffer VertexClusterItems { uint vc_items[]; };
 layout(std430, binding = 28) readonly buffer VertexCluster { uint vc_of[]; };
+// pixel_clusters=world: per cluster, how far its triangles reach past its vertices
+// (vertex_clusters::pixel_reach); the cluster pass grows the bounding sphere by it.
+layout(std430, binding = 29) readonly buffer VertexClusterReach { float vc_reach[]; };
 // Work counts (twin: engine::passes::shade::shexp::ClusterStats): clusters with receivers, cut entries,
 // the largest cut, clusters over the cap, nodes taken whole, clusters the pool could not hold.
 layout(std430, binding = 24) buffer ShexpStats { uint shexp_stats[8]; };

@@ -1,7 +1,9 @@
 // Technique `shexp`, receiver clusters (SHEXP §6.3 "Per-cluster computation"): one workgroup of 64 per
 // cluster, before the shade pass. A cluster is a T×T screen tile (per pixel, clusters_pixel.comp) or a
 // spatial group of at most T² vertices of one instance (per vertex, clusters_vertex.comp; vertex_clusters.rs),
-// T = shx.cluster.
+// T = shx.cluster. With pixel_clusters=world the per-pixel target uses the vertex clusters too
+// (clusters_vertex.comp): a pixel joins the cluster of its triangle's first vertex, and the bounding sphere
+// grows by the cluster's reach (vc_reach) so that it holds the cluster's triangles.
 // 1. The receivers' bounding sphere (p_R, r_R): the centre of their bounding box and the largest distance
 //    from it; the central point p* is the receiver nearest that centre (lowest index on ties).
 // 2. One cut of the blocker BVH for the whole cluster (thread 0): a node is taken whole when it subtends
@@ -20,6 +22,8 @@
 #include "bindings.glsl"
 
 layout(local_size_x = 64) in;
+// grow_by_reach 1: the clusters serve the per-pixel target (pixel_clusters=world), 0: their own vertices.
+layout(push_constant) uniform ClusterPush { uint grow_by_reach; } cluster_push;
 
 uint cluster_side() {
     return max(shx.cluster, 1u);
@@ -167,6 +171,8 @@ void main() {
         barrier();
     }
     float radius = s_r[0];
+    // pixel_clusters=world: the pixels of the cluster's triangles lie within their reach of its vertices.
+    if (cluster_push.grow_by_reach != 0u) radius += vc_reach[c];
     vec3 ps = centre;
     if (!empty) cluster_item(c, s_k[0], ps);
 

@@ -3,3 +3,7 @@
 #define SHEXP_PIXEL
 #include "shade.glsl"
 #include "../target_pixel.glsl"
+
+float shexp_pixel_first_vertex() {
+    return imageLoad(gbuf_geometric, ivec2(gl_GlobalInvocationID.xy)).w;
+}

@@ -84,10 +84,21 @@ void shexp_visit_weighted(ClusterEntry ce) {
     g_blockers += 1u;
 }
 
+#ifdef SHEXP_PIXEL
+// The G-buffer's geometric w at this pixel: its triangle's first vertex (defined in pixel.comp, after
+// target_pixel.glsl declares the image).
+float shexp_pixel_first_vertex();
+#endif
+
 // The receiver cluster of this invocation (clusters.glsl numbers them the same way).
 uint shexp_cluster_of_invocation() {
     uint t = max(shx.cluster, 1u);
 #ifdef SHEXP_PIXEL
+    // pixel_clusters=world: the cluster of the triangle's first vertex (the G-buffer's geometric w).
+    if (shx.pixel_world != 0u) {
+        float v = shexp_pixel_first_vertex();
+        return v >= 0.0 && v < float(vc_of.length()) ? vc_of[uint(v)] : 0u;
+    }
     uint tiles_x = (frame.size.x + t - 1u) / t;
     return (gl_GlobalInvocationID.y / t) * tiles_x + gl_GlobalInvocationID.x / t;
 #else

@@ -124,7 +124,17 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("4"),
         help: "when a mask's cut still holds more than 64 blockers, retry it with `take_whole` doubled up to this many times before dropping (and counting) the rest",
     },
+    OptionSpec {
+        key: "phase",
+        aliases: &[],
+        kind: Kind::Choice(&PHASES),
+        default: Some("all"),
+        help: "cost split (paper Table 1; a timing variant, its image is not the technique's): every receiver stops after lobes (reflectance and light lobes, R × L, U), gather (+ the masks' blocker cuts), mask (+ the quad-trees), leaves (+ the shadow leaves' lobes) or all (+ the visibility products and integrals)",
+    },
 ];
+
+/// The values of option `phase`, in order: phase k (1-based) is `LOBES_PHASE` k in shade.glsl.
+pub const PHASES: [&str; 5] = ["lobes", "gather", "mask", "leaves", "all"];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "lobes",
@@ -178,6 +188,8 @@ pub struct LobesOptions {
     pub take_whole: f64,
     /// Retries of an overflowing cut with `take_whole` doubled.
     pub coarsen: u32,
+    /// `phase`: the last phase each receiver runs, 1..=5 ([`PHASES`]; 5 = all, the image).
+    pub phase: u32,
     /// Factor of the light masks' leaf weights by the leaf's depth (index 0..=6; `weights=fitted`: the
     /// fitted table `assets/tables/lobes_weights.json`, else all 1).
     pub light_weights: [f64; WEIGHT_DEPTHS],
@@ -200,6 +212,7 @@ impl Default for LobesOptions {
             sharpen: 1.0,
             take_whole: 1.0,
             coarsen: 4,
+            phase: PHASES.len() as u32,
             light_weights: [1.0; WEIGHT_DEPTHS],
         }
     }
@@ -228,6 +241,7 @@ impl LobesOptions {
             sharpen: o.float("sharpen"),
             take_whole: o.float("take_whole"),
             coarsen: o.int("coarsen") as u32,
+            phase: PHASES.iter().position(|&p| p == o.choice("phase")).map_or(PHASES.len(), |i| i + 1) as u32,
             light_weights,
         })
     }
@@ -347,7 +361,12 @@ pub struct Lobes {
 
 impl Lobes {
     pub fn new(gpu: &Gpu, options: LobesOptions) -> Result<Self> {
-        let pipelines = TargetPipelines::new(gpu, "lobes")?;
+        let phase = options.phase.to_string();
+        let pipelines = if options.phase < PHASES.len() as u32 {
+            TargetPipelines::with_defines(gpu, "lobes", &[("LOBES_PHASE", phase.as_str())])?
+        } else {
+            TargetPipelines::new(gpu, "lobes")?
+        };
         Ok(Self { pipelines, options, prepared: None, stats: None })
     }
 

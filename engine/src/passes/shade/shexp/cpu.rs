@@ -99,6 +99,18 @@ impl Twin {
     /// GPU's BVH over `sphere_count` spheres. `None` when the cut exceeds [`super::CLUSTER_CAP`] (the shader
     /// then cuts per receiver). The bounding sphere, p*, the cut and W as the shader computes them.
     pub fn cluster_cut(&self, nodes: &[GpuBvhNode], sphere_count: u32, items: &[DVec3]) -> Option<ClusterCut> {
+        self.cluster_cut_grown(nodes, sphere_count, items, 0.0)
+    }
+
+    /// [`Self::cluster_cut`] with the bounding sphere's radius grown by `reach` (`pixel_clusters=world`: the
+    /// items are a vertex cluster's vertices and `reach` its [`super::vertex_clusters::pixel_reach`]).
+    pub fn cluster_cut_grown(
+        &self,
+        nodes: &[GpuBvhNode],
+        sphere_count: u32,
+        items: &[DVec3],
+        reach: f64,
+    ) -> Option<ClusterCut> {
         if items.is_empty() || sphere_count == 0 {
             return Some(ClusterCut {
                 entries: Vec::new(),
@@ -109,7 +121,7 @@ impl Twin {
         let (lo, hi) =
             items.iter().fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
         let centre = 0.5 * (lo + hi);
-        let radius = items.iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
+        let radius = items.iter().map(|p| p.distance(centre)).fold(0.0, f64::max) + reach;
         let mut ps = items[0];
         for p in items {
             if p.distance(centre) < ps.distance(centre) {

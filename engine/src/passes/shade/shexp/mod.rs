@@ -123,6 +123,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("on"),
         help: "with cluster > 0: on (W of Eq. 37 scales each node taken whole) or off (W = 1: nodes block as their bounding spheres, SHEXP Fig. 6b)",
     },
+    OptionSpec {
+        key: "pixel_clusters",
+        aliases: &[],
+        kind: Kind::Choice(&["tiles", "world"]),
+        default: Some("tiles"),
+        help: "per-pixel receiver clusters (cluster > 0): tiles (T×T screen tiles) or world (the per-vertex clusters: a pixel joins its triangle's first vertex's cluster, whose bounding sphere grows to hold the cluster's triangles)",
+    },
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
@@ -176,6 +183,9 @@ pub struct ShexpOptions {
     pub cluster: u32,
     /// `ratio_vectors=on`: the clusters' nodes taken whole are scaled by W (Eq. 37–38).
     pub ratio_vectors: bool,
+    /// `pixel_clusters=world`: per pixel, the clusters are the per-vertex ones (by each triangle's first
+    /// vertex) instead of screen tiles.
+    pub world_pixel_clusters: bool,
 }
 
 impl Default for ShexpOptions {
@@ -193,6 +203,7 @@ impl Default for ShexpOptions {
             accumulate_product: false,
             cluster: 16,
             ratio_vectors: true,
+            world_pixel_clusters: false,
         }
     }
 }
@@ -216,6 +227,7 @@ impl ShexpOptions {
             accumulate_product: o.choice("accumulate") == "product",
             cluster: o.int("cluster") as u32,
             ratio_vectors: o.choice("ratio_vectors") == "on",
+            world_pixel_clusters: o.choice("pixel_clusters") == "world",
         }
     }
 
@@ -261,7 +273,9 @@ pub struct GpuShexpParams {
     pub ratio_vectors: u32,
     /// Receiver clusters of the per-vertex target ([`vertex_clusters`]).
     pub vertex_clusters: u32,
-    pub pad1: u32,
+    /// 1: per pixel, the vertex clusters (`pixel_clusters=world`; the cluster pass then grows each bounding
+    /// sphere by the cluster's [`vertex_clusters::pixel_reach`]).
+    pub pixel_world: u32,
     pub pad2: u32,
     pub h_star: [f32; 8],
     pub window: [f32; 8],
@@ -271,10 +285,34 @@ struct Prepared {
     params: Buffer,
     env_sh: Buffer,
     tables: MathTables,
-    /// The per-vertex target's clusters ([`vertex_clusters::VertexClusters`]): offsets, items, cluster of
-    /// each vertex (one zero each without clusters, so the bindings are valid), and their count.
-    vertex_clusters: [Buffer; 3],
+    /// The vertex clusters ([`vertex_clusters::VertexClusters`]): offsets, items, cluster of each vertex,
+    /// and each cluster's pixel reach (one zero each without clusters, so the bindings are valid), and
+    /// their count.
+    vertex_clusters: [Buffer; 4],
     vertex_cluster_count: u32,
+}
+
+/// The vertex clusters of a scene and each cluster's pixel reach ([`scene_clusters`]).
+pub type SceneClusters = (vertex_clusters::VertexClusters, Vec<f32>);
+
+/// `pixel_clusters=world`: the G-buffer stores a triangle's first vertex index as an f32, exact up to 2²⁴.
+pub const MAX_WORLD_PIXEL_VERTICES: u32 = 1 << 24;
+
+/// The vertex clusters of `geometry` at most `max_size` each ([`vertex_clusters::scene_partition`] of its
+/// vertices under the instances' current transforms, both read back) and their pixel reach
+/// ([`vertex_clusters::pixel_reach`]): what the technique uses, for tests to check against.
+pub fn scene_clusters(gpu: &Gpu, geometry: &crate::resources::Geometry, max_size: usize) -> Result<SceneClusters> {
+    let mut v: Vec<crate::resources::layout::GpuVertex> = gpu.read_buffer(&geometry.vertices)?;
+    v.truncate(geometry.vertex_count as usize);
+    let objects: Vec<crate::resources::layout::GpuObject> = gpu.read_buffer(&geometry.objects)?;
+    let models: Vec<[f32; 16]> = objects.iter().map(|o| o.model).collect();
+    let mut indices: Vec<u32> = gpu.read_buffer(&geometry.indices)?;
+    indices.truncate(geometry.index_count as usize);
+    let points: Vec<([f32; 3], u32)> = v.iter().map(|x| (x.position, x.instance.max(0.0) as u32)).collect();
+    let world = vertex_clusters::world_positions(&points, &models);
+    let c = vertex_clusters::scene_partition(&world, max_size);
+    let reach = vertex_clusters::pixel_reach(&world, &indices, &c);
+    Ok((c, reach))
 }
 
 /// `SHEXP_CLUSTER_CAP` of shaders-glsl/shade/shexp/bindings.glsl: cut entries per receiver cluster.
@@ -361,8 +399,9 @@ pub struct Shexp {
     clusters: std::cell::RefCell<Vec<ClusterBuffers>>,
     stats: Option<Buffer>,
     frames: std::cell::Cell<u64>,
-    /// The per-vertex clusters, keyed by (vertex count, largest cluster), computed on the first `prepare`.
-    partition: Option<((u32, usize), vertex_clusters::VertexClusters)>,
+    /// The vertex clusters and their pixel reach, keyed by (vertex count, largest cluster), computed on the
+    /// first `prepare`.
+    partition: Option<((u32, usize), SceneClusters)>,
     pub options: ShexpOptions,
     prepared: Option<Prepared>,
 }
@@ -417,7 +456,7 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         cluster: o.cluster_side(),
         ratio_vectors: o.ratio_vectors as u32,
         vertex_clusters: 0,
-        pad1: 0,
+        pixel_world: o.world_pixel_clusters as u32,
         pad2: 0,
         h_star,
         window,
@@ -458,16 +497,12 @@ impl Shexp {
         }
     }
 
-    /// The per-vertex clusters of the scene's vertices (object space, read back once from the static vertex
-    /// buffer), at most `max_size` each.
-    /// Kept across `prepare`s (an environment turn prepares again, every frame under `--env-spin`): a technique
-    /// serves one renderer, whose object-space vertices never change.
-    fn vertex_clusters(
-        &mut self,
-        gpu: &Gpu,
-        inputs: &ShadeInputs,
-        max_size: usize,
-    ) -> Result<vertex_clusters::VertexClusters> {
+    /// The vertex clusters of the scene ([`vertex_clusters::scene_partition`] of the vertices read back once
+    /// from the static vertex buffer, under the instances' transforms of this first `prepare`), at most
+    /// `max_size` each, with their pixel reach. Kept across `prepare`s (an environment turn prepares again,
+    /// every frame under `--env-spin`): a technique serves one renderer, whose object-space vertices never
+    /// change.
+    fn vertex_clusters(&mut self, gpu: &Gpu, inputs: &ShadeInputs, max_size: usize) -> Result<SceneClusters> {
         let geometry = inputs.geometry()?;
         let key = (geometry.vertex_count, max_size);
         if let Some((k, c)) = &self.partition {
@@ -475,10 +510,7 @@ impl Shexp {
                 return Ok(c.clone());
             }
         }
-        let mut v: Vec<crate::resources::layout::GpuVertex> = gpu.read_buffer(&geometry.vertices)?;
-        v.truncate(geometry.vertex_count as usize);
-        let points: Vec<([f32; 3], u32)> = v.iter().map(|x| (x.position, x.instance.max(0.0) as u32)).collect();
-        let c = vertex_clusters::partition(&points, max_size);
+        let c = scene_clusters(gpu, geometry, max_size)?;
         self.partition = Some((key, c.clone()));
         Ok(c)
     }
@@ -575,8 +607,16 @@ impl Technique for Shexp {
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let ol = tables.get(MathTable::ShOl(o.order)).map(|t| t.header.axes[0].hi).unwrap_or(0.0);
         let gamma = tables.get(MathTable::ShGamma(o.order)).map(|t| t.header.entry_count() as u32).unwrap_or(0);
-        let clusters = match o.cluster_side() {
-            0 => vertex_clusters::VertexClusters { offsets: vec![0], items: vec![0], cluster_of: vec![0] },
+        if o.world_pixel_clusters && inputs.geometry()?.vertex_count > MAX_WORLD_PIXEL_VERTICES {
+            tables.destroy(gpu);
+            return Err(GpuError::Other(format!(
+                "shexp: pixel_clusters=world needs at most {MAX_WORLD_PIXEL_VERTICES} vertices (the G-buffer holds a \
+                 triangle's first vertex as a float); this scene has {}: use pixel_clusters=tiles",
+                inputs.geometry()?.vertex_count
+            )));
+        }
+        let (clusters, reach) = match o.cluster_side() {
+            0 => (vertex_clusters::VertexClusters { offsets: vec![0], items: vec![0], cluster_of: vec![0] }, vec![0.0]),
             t => match self.vertex_clusters(gpu, inputs, (t * t) as usize) {
                 Ok(c) => c,
                 Err(e) => {
@@ -605,15 +645,19 @@ impl Technique for Shexp {
                         &nonempty(&clusters.cluster_of),
                     )
                 },
+                &|| {
+                    let reach = if reach.is_empty() { vec![0.0] } else { reach.clone() };
+                    gpu.upload_buffer("shexp-vertex-cluster-reach", BufferDesc::gpu_only(0), &reach)
+                },
             ],
         );
         match made {
-            Ok([params, env_sh, offsets, items, cluster_of]) => {
+            Ok([params, env_sh, offsets, items, cluster_of, reach]) => {
                 self.prepared = Some(Prepared {
                     params,
                     env_sh,
                     tables,
-                    vertex_clusters: [offsets, items, cluster_of],
+                    vertex_clusters: [offsets, items, cluster_of, reach],
                     vertex_cluster_count: p.vertex_clusters,
                 });
                 Ok(())
@@ -640,8 +684,10 @@ impl Technique for Shexp {
         let blockers = inputs.blockers()?;
         let stats = self.stats.as_ref().ok_or_else(|| GpuError::Other("shexp: stats missing".into()))?;
         let side = self.options.cluster_side();
+        let world = self.options.world_pixel_clusters;
         let clusters = match target {
             ShadeTarget::Vertex { .. } if side > 0 => p.vertex_cluster_count,
+            ShadeTarget::Pixel { .. } if side > 0 && world => p.vertex_cluster_count,
             _ => cluster_count(&target, side),
         };
         self.ensure_cluster_buffers(rec.gpu(), clusters, blockers.sphere_count)?;
@@ -659,8 +705,14 @@ impl Technique for Shexp {
                 Binding::buffer("ShexpStats", stats),
                 Binding::buffer("VertexClusterOffsets", &p.vertex_clusters[0]),
                 Binding::buffer("VertexClusterItems", &p.vertex_clusters[1]),
+                Binding::buffer("VertexClusterReach", &p.vertex_clusters[3]),
             ];
             let per_vertex = match target {
+                ShadeTarget::Pixel { .. } if world => {
+                    rec.begin_pass("shade/shexp clusters (world)");
+                    b.push(Binding::buffer("WorldVertices", &inputs.geometry()?.world_vertices));
+                    true
+                }
                 ShadeTarget::Pixel { gbuffer, .. } => {
                     rec.begin_pass("shade/shexp clusters");
                     b.push(Binding::storage_image("gbuf_position", &gbuffer.position));
@@ -676,7 +728,13 @@ impl Technique for Shexp {
             rec.barrier();
             let pipeline = self.cluster_pipeline(rec.gpu(), per_vertex)?;
             let rows = clusters.div_ceil(CLUSTERS_PER_ROW);
-            rec.dispatch(pipeline, &b, &[], [clusters.min(CLUSTERS_PER_ROW) * 64, rows, 1])?;
+            let grow_by_reach = (world && matches!(target, ShadeTarget::Pixel { .. })) as u32;
+            rec.dispatch(
+                pipeline,
+                &b,
+                bytemuck::bytes_of(&grow_by_reach),
+                [clusters.min(CLUSTERS_PER_ROW) * 64, rows, 1],
+            )?;
             self.frames.set(self.frames.get() + 1);
         }
         self.pipelines.record(

@@ -1,10 +1,14 @@
-//! Receiver clusters of the per-vertex target (SHEXP §6.3): each instance's vertices split, in object space
-//! (the bind pose for a skinned mesh), into spatially compact groups of at most `max_size`, by recursive
-//! median splits along the longest axis of their bounding box (a balanced k-d partition, in place of the
-//! paper's Lloyd clustering: every cluster is a compact box, none holds more than the cluster pass's
-//! workgroup loops over, and the partition is deterministic). Computed once per scene: a cluster follows
-//! its instance's rigid motion and, approximately, its skinning, because its bounding sphere is taken from
-//! the vertices' current world positions every frame. Static geometry is clustered once like the rest.
+//! Receiver clusters of the per-vertex target, and of the per-pixel target under `pixel_clusters=world`
+//! (SHEXP §6.3): each instance's vertices split into spatially compact groups of at most `max_size`, no side
+//! of whose bounding box is longer than `max_extent`, by recursive median splits along the longest axis of
+//! their bounding box (a balanced k-d partition, in place of the paper's Lloyd clustering: every cluster is
+//! a compact box, none holds more than the cluster pass's workgroup loops over, and the partition is
+//! deterministic). The positions are the world positions of the first `prepare` (the bind pose under each
+//! instance's transform, [`world_positions`]); the clusters are sets of vertices, computed once per scene:
+//! a cluster follows its instance's rigid motion and, approximately, its skinning, because its bounding
+//! sphere is taken from the vertices' current world positions every frame. Static geometry is clustered
+//! once like the rest. The extent bound keeps a large, coarsely tessellated mesh (a ground of a few hundred
+//! vertices spanning the scene) from becoming one cluster whose bounding sphere holds every blocker.
 
 /// The partition: cluster `c` holds `items[offsets[c] .. offsets[c + 1]]` (vertex indices); `cluster_of[v]`
 /// is vertex v's cluster.
@@ -21,10 +25,16 @@ impl VertexClusters {
     }
 }
 
-/// Partition vertices given as (object-space position, instance index) into clusters of at most
-/// `max_size` (≥ 1) vertices of one instance each. Non-finite positions sort as the origin.
-pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize) -> VertexClusters {
+/// The fraction of the scene's size (its vertices' bounding-box diagonal) that bounds a cluster's
+/// longest side: [`scene_partition`] uses `diagonal / EXTENT_DIVISOR`.
+pub const EXTENT_DIVISOR: f32 = 8.0;
+
+/// Partition vertices given as (position, instance index) into clusters of at most `max_size` (≥ 1)
+/// vertices of one instance each, split further while a cluster of two or more vertices has a bounding-box
+/// side longer than `max_extent` (`f32::INFINITY`: no bound). Non-finite positions sort as the origin.
+pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize, max_extent: f32) -> VertexClusters {
     let max_size = max_size.max(1);
+    let max_extent = if max_extent > 0.0 { max_extent } else { f32::INFINITY };
     let mut by_instance: std::collections::BTreeMap<u32, Vec<u32>> = std::collections::BTreeMap::new();
     for (v, (_, inst)) in vertices.iter().enumerate() {
         by_instance.entry(*inst).or_default().push(v as u32);
@@ -38,10 +48,6 @@ pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize) -> VertexCluster
         let mut stack = vec![(0usize, group.len())];
         let mut leaves = Vec::new();
         while let Some((lo, hi)) = stack.pop() {
-            if hi - lo <= max_size {
-                leaves.push((lo, hi));
-                continue;
-            }
             let slice = &mut group[lo..hi];
             let (mut min, mut max) = ([f32::MAX; 3], [f32::MIN; 3]);
             for &v in slice.iter() {
@@ -52,10 +58,15 @@ pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize) -> VertexCluster
                 }
             }
             let axis = (0..3).max_by(|&a, &b| (max[a] - min[a]).total_cmp(&(max[b] - min[b]))).unwrap_or(0);
+            let too_many = hi - lo > max_size;
+            if !too_many && (hi - lo < 2 || max[axis] - min[axis] <= max_extent) {
+                leaves.push((lo, hi));
+                continue;
+            }
             // Split at a multiple of max_size (at least one full cluster on the left) near the middle, so
-            // that the clusters come out as full as the count allows.
+            // that the clusters come out as full as the count allows; for the extent alone, at the middle.
             let half = (hi - lo) / 2;
-            let mid = (half.div_ceil(max_size) * max_size).min(hi - lo - 1).max(1);
+            let mid = if too_many { half.div_ceil(max_size) * max_size } else { half }.min(hi - lo - 1).max(1);
             slice.select_nth_unstable_by(mid, |&a, &b| pos(a)[axis].total_cmp(&pos(b)[axis]).then(a.cmp(&b)));
             stack.push((lo + mid, hi));
             stack.push((lo, lo + mid));
@@ -75,6 +86,58 @@ pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize) -> VertexCluster
     VertexClusters { offsets, items, cluster_of }
 }
 
+/// World positions of object-space vertices (`position`, instance) under the instances' column-major model
+/// matrices (`models[instance]`; an instance without one keeps its object-space position).
+pub fn world_positions(vertices: &[([f32; 3], u32)], models: &[[f32; 16]]) -> Vec<([f32; 3], u32)> {
+    vertices
+        .iter()
+        .map(|&(p, inst)| {
+            let Some(m) = models.get(inst as usize) else { return (p, inst) };
+            let w = std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+            (w, inst)
+        })
+        .collect()
+}
+
+/// The partition the technique uses: [`partition`] of the world positions with `max_extent` the scene's
+/// bounding-box diagonal over [`EXTENT_DIVISOR`].
+pub fn scene_partition(world: &[([f32; 3], u32)], max_size: usize) -> VertexClusters {
+    let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+    for (p, _) in world.iter().filter(|(p, _)| p.iter().all(|x| x.is_finite())) {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f32>().sqrt();
+    partition(world, max_size, diagonal / EXTENT_DIVISOR)
+}
+
+/// Per cluster, how far the pixels of its triangles may lie from its vertices (`pixel_clusters=world`: a
+/// pixel belongs to the cluster of its triangle's first vertex): the largest distance, over the triangles
+/// (`indices`, three per triangle) whose first vertex is in the cluster, from that vertex to the
+/// triangle's other two. The cluster pass grows the bounding sphere of the cluster's vertices by it, so
+/// that it holds every such triangle.
+pub fn pixel_reach(world: &[([f32; 3], u32)], indices: &[u32], clusters: &VertexClusters) -> Vec<f32> {
+    let mut reach = vec![0f32; clusters.count()];
+    let finite = |p: [f32; 3]| p.iter().all(|x| x.is_finite());
+    for t in indices.chunks_exact(3) {
+        let (Some(a), Some(b), Some(c)) =
+            (world.get(t[0] as usize), world.get(t[1] as usize), world.get(t[2] as usize))
+        else {
+            continue;
+        };
+        if !(finite(a.0) && finite(b.0) && finite(c.0)) {
+            continue;
+        }
+        let d = |q: [f32; 3]| (0..3).map(|k| (q[k] - a.0[k]).powi(2)).sum::<f32>().sqrt();
+        if let Some(r) = clusters.cluster_of.get(t[0] as usize).and_then(|&k| reach.get_mut(k as usize)) {
+            *r = r.max(d(b.0)).max(d(c.0));
+        }
+    }
+    reach
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -91,7 +154,7 @@ mod tests {
         for (k, x) in b.into_iter().enumerate() {
             v.insert(2 * k + 1, x);
         }
-        let c = partition(&v, 256);
+        let c = partition(&v, 256, f32::INFINITY);
         assert_eq!(c.items.len(), v.len());
         let mut seen = vec![false; v.len()];
         for k in 0..c.count() {
@@ -118,12 +181,51 @@ mod tests {
 
     #[test]
     fn degenerate_inputs() {
-        assert_eq!(partition(&[], 16).count(), 0);
+        assert_eq!(partition(&[], 16, 1.0).count(), 0);
         let same = vec![([1.0, 2.0, 3.0], 0u32); 1000];
-        let c = partition(&same, 64);
+        let c = partition(&same, 64, 0.0);
         assert_eq!(c.items.len(), 1000);
         assert!((0..c.count()).all(|k| c.offsets[k + 1] - c.offsets[k] <= 64));
         let nan = vec![([f32::NAN, 0.0, f32::INFINITY], 3u32); 10];
-        assert_eq!(partition(&nan, 0).count(), 10, "max_size 0 acts as 1");
+        assert_eq!(partition(&nan, 0, 1.0).count(), 10, "max_size 0 acts as 1");
+    }
+
+    #[test]
+    fn the_extent_bound_splits_a_large_coarse_mesh() {
+        // A 17 × 17 ground of 16 units: by count alone one cluster of 256 and a strip of 33.
+        let ground = grid(17, 0, 0.0);
+        assert_eq!(partition(&ground, 256, f32::INFINITY).count(), 2);
+        let c = partition(&ground, 256, 2.0);
+        for k in 0..c.count() {
+            let m = &c.items[c.offsets[k] as usize..c.offsets[k + 1] as usize];
+            for a in [0, 2] {
+                let xs = m.iter().map(|&i| ground[i as usize].0[a]);
+                let ext = xs.clone().fold(f32::MIN, f32::max) - xs.fold(f32::MAX, f32::min);
+                assert!(ext <= 2.0, "cluster {k} spans {ext} along axis {a}");
+            }
+        }
+        assert!(c.count() >= 36, "{} clusters", c.count());
+        // scene_partition takes the bound from the diagonal: 16 √2 / 8 ≈ 2.83 here, coarser than 2.
+        let s = scene_partition(&ground, 256);
+        assert!(s.count() > 2 && s.count() <= c.count(), "{} and {} clusters", s.count(), c.count());
+    }
+
+    #[test]
+    fn world_positions_and_pixel_reach() {
+        // Translate by (10, 0, 0) and scale by 2: column-major.
+        let mut m = [0f32; 16];
+        m[0] = 2.0;
+        m[5] = 2.0;
+        m[10] = 2.0;
+        m[12] = 10.0;
+        m[15] = 1.0;
+        let w = world_positions(&[([1.0, 2.0, 3.0], 0), ([1.0, 1.0, 1.0], 5)], &[m]);
+        assert_eq!(w[0].0, [12.0, 4.0, 6.0]);
+        assert_eq!(w[1].0, [1.0, 1.0, 1.0], "no model: unchanged");
+        // Two triangles over four vertices in two clusters: the reach is from each triangle's first vertex.
+        let v = vec![([0.0, 0.0, 0.0], 0), ([3.0, 0.0, 0.0], 0), ([0.0, 4.0, 0.0], 0), ([0.0, 0.0, 1.0], 0)];
+        let clusters = VertexClusters { offsets: vec![0, 2, 4], items: vec![0, 3, 1, 2], cluster_of: vec![0, 1, 1, 0] };
+        let reach = pixel_reach(&v, &[0, 1, 2, 1, 2, 99], &clusters);
+        assert_eq!(reach, vec![4.0, 0.0], "the second triangle has an index out of range and is skipped");
     }
 }
