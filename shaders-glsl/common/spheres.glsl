@@ -73,4 +73,19 @@ bool blocker_for_receiver(vec3 p, vec3 n, vec4 s, out vec4 blocker) {
     return true;
 }
 
+// The same with the paper's radius scale α (SHEXP §6.2, our reading): for p outside a sphere straddling
+// T_p, the sphere tangent to T_p at q1 (the centre's foot) of radius (1 − α) max(h, 0) + α (h + r)/2,
+// α = clamp((‖p − q1‖ − d)/d, 0, 1), d = √(r² − h²): the inside rule's blocker on the sphere, S' from
+// ‖p − q1‖ = 2d on. Twin: geom::blocker_for_receiver_alpha.
+bool blocker_for_receiver_alpha(vec3 p, vec3 n, vec4 s, out vec4 blocker) {
+    float h = dot(s.xyz - p, n);
+    if (distance(s.xyz, p) <= s.w || h <= -s.w || h >= s.w) return blocker_for_receiver(p, n, s, blocker);
+    vec3 q1 = s.xyz - n * h;
+    float d = sqrt(max(s.w * s.w - h * h, 0.0));
+    float a = d > 0.0 ? clamp((distance(p, q1) - d) / d, 0.0, 1.0) : 1.0;
+    float r = (1.0 - a) * max(h, 0.0) + a * 0.5 * (h + s.w);
+    blocker = vec4(q1 + n * r, r);
+    return r > 0.0;
+}
+
 #endif // SPHERES_GLSL

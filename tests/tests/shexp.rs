@@ -147,13 +147,16 @@ fn hard_blocker_sets_match_the_twin() {
         // large=log: every sphere in the log (with large=product the GPU's BVH order and the twin's
         // list order would pick different spheres once more than four are large).
         // The first two cut per receiver; the third takes the same leaves from 16×16-pixel clusters' cuts
-        // (θ_max = 0: every node is opened, W = 1).
-        for (spec, exp) in [
-            ("shexp:theta_max=0,large=log,cluster=0", ExpChoice::Hyb),
-            ("shexp:theta_max=0,large=log,exp=ps,cluster=0", ExpChoice::PsStar),
-            ("shexp:theta_max=0,large=log,cluster=16", ExpChoice::Hyb),
+        // (θ_max = 0: every node is opened, W = 1); the fourth applies the §6.2 rule without the α scale
+        // (many of these spheres straddle the receivers' tangent planes).
+        for (spec, exp, alpha_scale) in [
+            ("shexp:theta_max=0,large=log,cluster=0", ExpChoice::Hyb, true),
+            ("shexp:theta_max=0,large=log,exp=ps,cluster=0", ExpChoice::PsStar, true),
+            ("shexp:theta_max=0,large=log,cluster=16", ExpChoice::Hyb, true),
+            ("shexp:theta_max=0,large=log,cluster=0,alpha_scale=off", ExpChoice::Hyb, false),
         ] {
-            let o = ShexpOptions { exp, theta_max_deg: 0.0, large_product: false, ..ShexpOptions::default() };
+            let o =
+                ShexpOptions { exp, theta_max_deg: 0.0, large_product: false, alpha_scale, ..ShexpOptions::default() };
             let (errs, max_norm) = compare(&gpu, &scene, &world, spec, &o);
             eprintln!("{what}: largest ‖f̂‖ at a receiver {max_norm:.1}");
             assert!(max_norm >= min_norm, "{what}: ‖f̂‖ only reached {max_norm}");
@@ -429,14 +432,17 @@ fn theta_min_drops_tiny_blockers_on_both_sides() {
 
 // A sphere crossing the receiver's tangent plane as it moves (the §6.2 shrink rule, f64 twin, no
 // GPU): the shading changes by at most a small bound between neighbouring steps. A sphere that
-// grows to contain the receiver switches rules (shrink → min(h, r)): that jump is measured and
-// bounded separately (the paper's α scale that would remove it is not implemented).
+// passes through the receiver switches rules where the receiver enters and leaves it (S' outside,
+// shrunk about its centre or eliminated inside): that jump is measured and bounded separately, and
+// with the paper's α scale (alpha_scale=on) it must be gone.
 #[test]
 fn sphere_crossing_the_tangent_plane_is_continuous() {
     let env = engine::math::envmap::LatLongMap::constant(32, 16, [1.0; 3]);
-    let twin = Twin::new(&ShexpOptions { large_product: false, ..ShexpOptions::default() }, &env).expect("twin tables");
+    let base = ShexpOptions { large_product: false, alpha_scale: false, ..ShexpOptions::default() };
+    let twin = Twin::new(&base, &env).expect("twin tables");
+    let scaled = Twin::new(&ShexpOptions { alpha_scale: true, ..base }, &env).expect("twin tables");
     let (p, n) = (DVec3::ZERO, DVec3::Y);
-    let path = |r: f64| -> Vec<f64> {
+    let path_with = |twin: &Twin, r: f64| -> Vec<f64> {
         (0..=160)
             .map(|k| {
                 let y = -0.8 + 1.6 * k as f64 / 160.0;
@@ -448,15 +454,18 @@ fn sphere_crossing_the_tangent_plane_is_continuous() {
             .collect()
     };
     let max_jump = |v: &[f64]| v.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
-    let outside = path(0.3);
-    let inside = path(0.6);
+    let outside = path_with(&twin, 0.3);
+    let inside = path_with(&twin, 0.6);
     let (jo, ji) = (max_jump(&outside), max_jump(&inside));
+    let (jo_a, ji_a) = (max_jump(&path_with(&scaled, 0.3)), max_jump(&path_with(&scaled, 0.6)));
     let darkest = outside.iter().cloned().fold(1.0, f64::min);
     eprintln!("tangent-plane crossing: largest step {jo:.2e} (r = 0.3, darkest {darkest:.3}); through the receiver (r = 0.6) {ji:.2e}");
+    eprintln!("with the α scale: {jo_a:.2e} (r = 0.3), {ji_a:.2e} (r = 0.6)");
     // Measured: 4.9e-3 per step (Δy = 0.01) at r = 0.3; 0.155 where the receiver enters the r = 0.6 sphere.
     assert!(darkest < 0.95, "the sphere shadows the receiver on its path");
     assert!(jo < 1e-2, "jump {jo}");
     assert!(ji < 0.2, "jump {ji} where the receiver enters the sphere");
+    assert!(jo_a < 1e-2 && ji_a < 2e-2, "with the α scale: {jo_a}, {ji_a}");
 }
 
 // A measurement helper, not a check (ignored): writes the environment `SHEXP_ENV` (default the

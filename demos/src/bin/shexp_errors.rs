@@ -262,7 +262,8 @@ fn run() -> Result<()> {
     let mut table = vec![];
     for &order in &args.orders {
         eprintln!("order {order}...");
-        let base = ShexpOptions { order, ..ShexpOptions::default() };
+        // The §6.2 rule without the α scale: the one the true visibility's rays apply (as the reference's).
+        let base = ShexpOptions { order, alpha_scale: false, ..ShexpOptions::default() };
         let og = order_grid(&grid, env, &base);
         let twins: Vec<Twin> = [ExpChoice::Hyb, ExpChoice::Ol, ExpChoice::PsStar]
             .into_iter()

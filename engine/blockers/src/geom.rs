@@ -390,7 +390,8 @@ mod tests {
 ///   whose diameter joins the point of `s` farthest in front of T_p (q0) and its projection onto T_p
 ///   (q1); unaltered if entirely in front.
 ///
-/// The paper's gradual radius scale α (for continuity as `p` leaves `s`) is not applied.
+/// The paper's gradual radius scale α (for continuity as `p` leaves `s`) is not applied here: it is
+/// [`blocker_for_receiver_alpha`], which `shexp:alpha_scale=on` uses.
 /// Twin: `blocker_for_receiver` in shaders-glsl/common/spheres.glsl.
 pub fn blocker_for_receiver(p: DVec3, n: DVec3, s: &Sphere) -> Option<Sphere> {
     let h = (s.center - p).dot(n);
@@ -407,6 +408,28 @@ pub fn blocker_for_receiver(p: DVec3, n: DVec3, s: &Sphere) -> Option<Sphere> {
     Some(Sphere::new(s.center + n * (s.radius - 0.5 * t), 0.5 * t))
 }
 
+/// [`blocker_for_receiver`] with the paper's radius scale α (SHEXP §6.2), which removes the jump as `p`
+/// leaves `s`: for `p` outside a sphere that straddles T_p, the blocker is the sphere tangent to T_p at q1
+/// (the foot of the centre on T_p, where S' touches it) of radius r_α = (1 − α) max(h, 0) + α (h + r)/2,
+/// h the centre's height above T_p, α = clamp((‖p − q1‖ − d)/d, 0, 1) and d = √(r² − h²) the radius of the
+/// circle where `s` meets T_p. On that circle (p on the sphere) α = 0 and the blocker is what the inside
+/// rule gives there (the sphere shrunk about its centre until tangent, or nothing when the centre is behind);
+/// from ‖p − q1‖ = 2d on it is S', the paper's replacement. The paper prints α = max(1, (‖p − q1‖ − d)/d),
+/// which is never below 1 and so could not remove the jump: this is our reading (the clamp to [0, 1] and
+/// the blend from the inside rule's radius). Every other case is [`blocker_for_receiver`]'s.
+/// Twin: `blocker_for_receiver_alpha` in shaders-glsl/common/spheres.glsl.
+pub fn blocker_for_receiver_alpha(p: DVec3, n: DVec3, s: &Sphere) -> Option<Sphere> {
+    let h = (s.center - p).dot(n);
+    if s.center.distance(p) <= s.radius || h <= -s.radius || h >= s.radius {
+        return blocker_for_receiver(p, n, s);
+    }
+    let q1 = s.center - n * h;
+    let d = (s.radius * s.radius - h * h).max(0.0).sqrt();
+    let alpha = if d > 0.0 { ((p.distance(q1) - d) / d).clamp(0.0, 1.0) } else { 1.0 };
+    let r = (1.0 - alpha) * h.max(0.0) + alpha * 0.5 * (h + s.radius);
+    (r > 0.0).then(|| Sphere::new(q1 + n * r, r))
+}
+
 #[cfg(test)]
 mod receiver_rule_tests {
     use super::*;
@@ -418,6 +441,45 @@ mod receiver_rule_tests {
         assert!(!s.ray_hits(DVec3::ZERO, -DVec3::Y), "behind the origin");
         assert!(!s.ray_hits(DVec3::ZERO, DVec3::new(0.3, 1.0, 0.0).normalize()), "misses (0.29 rad > 0.25)");
         assert!(s.ray_hits(DVec3::new(0.0, 2.0, 0.0), DVec3::X), "from inside");
+    }
+
+    #[test]
+    fn the_alpha_scale_joins_the_inside_and_outside_rules() {
+        let n = DVec3::Y;
+        for h in [-0.3, -0.05, 0.0, 0.2, 0.45] {
+            let s = Sphere::new(DVec3::new(0.0, h, 0.0), 0.5);
+            let d = (0.25 - h * h).sqrt();
+            // Just inside and just outside the sphere, on its circle in T_p (p's own plane: y = 0).
+            let inside = |x: f64| blocker_for_receiver(DVec3::new(x, 0.0, 0.0), n, &s);
+            let outside = |x: f64| blocker_for_receiver_alpha(DVec3::new(x, 0.0, 0.0), n, &s);
+            let (a, b) = (inside(d - 1e-9), outside(d + 1e-9));
+            match (a, b) {
+                (None, None) => assert!(h <= 0.0),
+                (None, Some(b)) => assert!(h <= 0.0 && b.radius < 1e-6, "h {h}: {b:?}"),
+                (Some(a), Some(b)) => {
+                    assert!(
+                        a.center.distance(b.center) < 1e-6 && (a.radius - b.radius).abs() < 1e-6,
+                        "h {h}: {a:?} {b:?}"
+                    )
+                }
+                (Some(a), None) => panic!("h {h}: inside {a:?}, nothing outside"),
+            }
+            // Without α the two rules differ there: the jump the scale removes.
+            let plain = blocker_for_receiver(DVec3::new(d + 1e-9, 0.0, 0.0), n, &s).expect("straddles");
+            assert!((plain.radius - a.map_or(0.0, |a| a.radius)).abs() > 0.02, "h {h}");
+            // From 2d on, S' itself; every case other than straddling is unchanged.
+            let far = DVec3::new(2.0 * d + 1e-9, 0.0, 0.0);
+            let (x, y) = (blocker_for_receiver_alpha(far, n, &s).unwrap(), blocker_for_receiver(far, n, &s).unwrap());
+            assert!(x.center.distance(y.center) < 1e-12 && (x.radius - y.radius).abs() < 1e-12, "h {h}: {x:?} {y:?}");
+            // The radius grows monotonically from the circle to 2d.
+            let radii: Vec<f64> =
+                (0..=20).map(|k| outside(d * (1.0 + k as f64 / 20.0)).map_or(0.0, |b| b.radius)).collect();
+            assert!(radii.windows(2).all(|w| w[1] >= w[0] - 1e-12), "h {h}: {radii:?}");
+        }
+        for (c, p) in [(DVec3::new(0.0, 0.8, 0.0), DVec3::new(3.0, 0.0, 0.0)), (DVec3::new(0.0, -0.8, 0.0), DVec3::X)] {
+            let s = Sphere::new(c, 0.5);
+            assert_eq!(blocker_for_receiver_alpha(p, n, &s), blocker_for_receiver(p, n, &s), "not straddling");
+        }
     }
 
     #[test]

@@ -32,7 +32,7 @@ struct ShexpParams {
     uint ratio_vectors;    // 1: W from Eq. 37; 0: W = 1 (the cut's nodes block as their bounding spheres)
     uint vertex_clusters;  // clusters of the per-vertex target (VertexCluster* below)
     uint pixel_world;      // 1: per pixel, the vertex clusters (pixel_clusters=world)
-    uint pad2;
+    uint alpha_scale;      // 1: the §6.2 rule with the radius scale α (blocker_for_receiver_alpha)
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
     vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
 };

@@ -48,9 +48,14 @@ float g_prod[SHN_C];
 
 void shexp_multiply_circle_visibility(inout float g[SHN_C], float u, vec3 axis, bool g_is_one);
 
+// The §6.2 rules (spheres.glsl), with the radius scale α under alpha_scale=on.
+bool shexp_rule(vec4 s, out vec4 b) {
+    return shx.alpha_scale != 0u ? blocker_for_receiver_alpha(g_p, g_n, s, b) : blocker_for_receiver(g_p, g_n, s, b);
+}
+
 void shexp_visit(vec4 s) {
     vec4 b;
-    if (!blocker_for_receiver(g_p, g_n, s, b)) return;
+    if (!shexp_rule(s, b)) return;
     float u = shn_sphere_u(g_p, b);
     if (!(u > 0.0)) return;
     if (shx.accumulate == 1u) {
@@ -71,7 +76,7 @@ void shexp_visit(vec4 s) {
 // (W = 1) get there unless θ_max exceeds θ_clip, as a node taken whole subtends less than θ_max.
 void shexp_visit_weighted(ClusterEntry ce) {
     vec4 b;
-    if (!blocker_for_receiver(g_p, g_n, ce.sphere, b)) return;
+    if (!shexp_rule(ce.sphere, b)) return;
     float u = shn_sphere_u(g_p, b);
     if (!(u > 0.0)) return;
     if (u > shx.large_u && g_large_count < uint(SHEXP_MAX_LARGE)) {

@@ -6,7 +6,7 @@
 
 use super::{ExpChoice, ShexpOptions};
 use engine_blockers::bvh::GpuBvhNode;
-use engine_blockers::geom::{blocker_for_receiver, Sphere};
+use engine_blockers::geom::{blocker_for_receiver, blocker_for_receiver_alpha, Sphere};
 use engine_blockers::plane::BlockerPlane;
 use engine_blockers::traverse;
 use engine_math::envmap::LatLongMap;
@@ -204,7 +204,7 @@ impl Twin {
         let mut count = 0;
         let mut large = Vec::new();
         for (s, w) in &cut.entries {
-            let Some((u, axis)) = sphere_circle(p, n, s) else { continue };
+            let Some((u, axis)) = sphere_circle(p, n, s, self.options.alpha_scale) else { continue };
             if u > self.large_u && large.len() < MAX_LARGE {
                 large.push((u, axis));
                 continue;
@@ -240,7 +240,7 @@ impl Twin {
         spheres
             .iter()
             .filter(|s| s.radius >= sin_min * s.center.distance(p))
-            .filter_map(|s| sphere_circle(p, n, s))
+            .filter_map(|s| sphere_circle(p, n, s, self.options.alpha_scale))
             .collect()
     }
 
@@ -399,10 +399,10 @@ pub struct ClusterCut {
     pub receiver: Sphere,
 }
 
-/// The circle a sphere blocks at receiver `p` (normal `n`) after the §6.2 rules: (u = 1 − cos θ, axis to its
-/// centre), `None` when culled or of no radius.
-fn sphere_circle(p: DVec3, n: DVec3, s: &Sphere) -> Option<(f64, DVec3)> {
-    let b = blocker_for_receiver(p, n, s)?;
+/// The circle a sphere blocks at receiver `p` (normal `n`) after the §6.2 rules (with the radius scale α when
+/// `alpha_scale`): (u = 1 − cos θ, axis to its centre), `None` when culled or of no radius.
+fn sphere_circle(p: DVec3, n: DVec3, s: &Sphere, alpha_scale: bool) -> Option<(f64, DVec3)> {
+    let b = if alpha_scale { blocker_for_receiver_alpha(p, n, s)? } else { blocker_for_receiver(p, n, s)? };
     if b.radius <= 0.0 {
         return None;
     }

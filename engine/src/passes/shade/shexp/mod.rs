@@ -124,6 +124,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "with cluster > 0: on (W of Eq. 37 scales each node taken whole) or off (W = 1: nodes block as their bounding spheres, SHEXP Fig. 6b)",
     },
     OptionSpec {
+        key: "alpha_scale",
+        aliases: &[],
+        kind: Kind::Choice(&["on", "off"]),
+        default: Some("on"),
+        help: "on: the paper's radius scale α for spheres straddling the tangent plane (§6.2, our reading: the blocker grows from the inside rule's on the sphere to S' at twice the circle's radius), removing the jump as a receiver leaves a sphere; off: the rule without α that the reference and isg use",
+    },
+    OptionSpec {
         key: "pixel_clusters",
         aliases: &[],
         kind: Kind::Choice(&["tiles", "world"]),
@@ -183,6 +190,8 @@ pub struct ShexpOptions {
     pub cluster: u32,
     /// `ratio_vectors=on`: the clusters' nodes taken whole are scaled by W (Eq. 37–38).
     pub ratio_vectors: bool,
+    /// `alpha_scale=on`: the §6.2 rule with the radius scale α (`geom::blocker_for_receiver_alpha`).
+    pub alpha_scale: bool,
     /// `pixel_clusters=world`: per pixel, the clusters are the per-vertex ones (by each triangle's first
     /// vertex) instead of screen tiles.
     pub world_pixel_clusters: bool,
@@ -203,6 +212,7 @@ impl Default for ShexpOptions {
             accumulate_product: false,
             cluster: 16,
             ratio_vectors: true,
+            alpha_scale: true,
             world_pixel_clusters: false,
         }
     }
@@ -227,6 +237,7 @@ impl ShexpOptions {
             accumulate_product: o.choice("accumulate") == "product",
             cluster: o.int("cluster") as u32,
             ratio_vectors: o.choice("ratio_vectors") == "on",
+            alpha_scale: o.choice("alpha_scale") == "on",
             world_pixel_clusters: o.choice("pixel_clusters") == "world",
         }
     }
@@ -276,7 +287,8 @@ pub struct GpuShexpParams {
     /// 1: per pixel, the vertex clusters (`pixel_clusters=world`; the cluster pass then grows each bounding
     /// sphere by the cluster's [`vertex_clusters::pixel_reach`]).
     pub pixel_world: u32,
-    pub pad2: u32,
+    /// 1: the §6.2 rule with the radius scale α (`alpha_scale=on`).
+    pub alpha_scale: u32,
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -457,7 +469,7 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         ratio_vectors: o.ratio_vectors as u32,
         vertex_clusters: 0,
         pixel_world: o.world_pixel_clusters as u32,
-        pad2: 0,
+        alpha_scale: o.alpha_scale as u32,
         h_star,
         window,
     }
