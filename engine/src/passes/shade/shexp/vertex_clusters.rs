@@ -86,6 +86,90 @@ pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize, max_extent: f32)
     VertexClusters { offsets, items, cluster_of }
 }
 
+/// Centroids a vertex may move to in one Lloyd step: its cluster's and the nearest others of its instance.
+const LLOYD_NEIGHBOURS: usize = 8;
+
+/// Lloyd iterations (the paper's clustering, SHEXP §6.3) started from a partition: every cluster's
+/// centroid, then every vertex to the nearest centroid among its cluster's [`LLOYD_NEIGHBOURS`] nearest of
+/// the same instance (its own included: the cost stays linear in the vertices), until no vertex moves or
+/// `iterations` have run. Clusters that end over `max_size` vertices or `max_extent` a side are split again
+/// by [`partition`]'s median rule; emptied ones are dropped. Non-finite positions count as the origin.
+pub fn lloyd(
+    vertices: &[([f32; 3], u32)],
+    start: &VertexClusters,
+    max_size: usize,
+    max_extent: f32,
+    iterations: usize,
+) -> VertexClusters {
+    let pos = |v: usize| vertices[v].0.map(|x| if x.is_finite() { x as f64 } else { 0.0 });
+    let k = start.count();
+    let mut assign = start.cluster_of.clone();
+    let instance: Vec<u32> = (0..k).map(|c| vertices[start.items[start.offsets[c] as usize] as usize].1).collect();
+    let mut by_instance: std::collections::BTreeMap<u32, Vec<usize>> = std::collections::BTreeMap::new();
+    for (c, &i) in instance.iter().enumerate() {
+        by_instance.entry(i).or_default().push(c);
+    }
+    let d2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
+    for _ in 0..iterations {
+        let mut sum = vec![[0f64; 3]; k];
+        let mut count = vec![0usize; k];
+        for (v, &c) in assign.iter().enumerate() {
+            let p = pos(v);
+            for a in 0..3 {
+                sum[c as usize][a] += p[a];
+            }
+            count[c as usize] += 1;
+        }
+        let centre: Vec<[f64; 3]> = (0..k).map(|c| sum[c].map(|x| x / count[c].max(1) as f64)).collect();
+        let mut near: Vec<Vec<usize>> = vec![Vec::new(); k];
+        for group in by_instance.values() {
+            for &c in group.iter().filter(|&&c| count[c] > 0) {
+                let mut others: Vec<usize> = group.iter().copied().filter(|&o| count[o] > 0).collect();
+                others.sort_by(|&a, &b| d2(centre[a], centre[c]).total_cmp(&d2(centre[b], centre[c])).then(a.cmp(&b)));
+                others.truncate(LLOYD_NEIGHBOURS);
+                near[c] = others;
+            }
+        }
+        let mut moved = 0usize;
+        for (v, c) in assign.iter_mut().enumerate() {
+            let p = pos(v);
+            let best = near[*c as usize]
+                .iter()
+                .copied()
+                .min_by(|&a, &b| d2(p, centre[a]).total_cmp(&d2(p, centre[b])).then(a.cmp(&b)))
+                .unwrap_or(*c as usize) as u32;
+            if best != *c {
+                *c = best;
+                moved += 1;
+            }
+        }
+        if moved == 0 {
+            break;
+        }
+    }
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); k];
+    for (v, &c) in assign.iter().enumerate() {
+        members[c as usize].push(v as u32);
+    }
+    let mut offsets = vec![0u32];
+    let mut items = Vec::with_capacity(vertices.len());
+    for m in members.into_iter().filter(|m| !m.is_empty()) {
+        let sub: Vec<([f32; 3], u32)> = m.iter().map(|&v| (vertices[v as usize].0, 0)).collect();
+        let split = partition(&sub, max_size, max_extent);
+        for c in 0..split.count() {
+            items.extend(split.items[split.offsets[c] as usize..split.offsets[c + 1] as usize].iter().map(|&i| m[i as usize]));
+            offsets.push(items.len() as u32);
+        }
+    }
+    let mut cluster_of = vec![0u32; vertices.len()];
+    for c in 0..offsets.len() - 1 {
+        for &v in &items[offsets[c] as usize..offsets[c + 1] as usize] {
+            cluster_of[v as usize] = c as u32;
+        }
+    }
+    VertexClusters { offsets, items, cluster_of }
+}
+
 /// World positions of object-space vertices (`position`, instance) under the instances' column-major model
 /// matrices (`models[instance]`; an instance without one keeps its object-space position).
 pub fn world_positions(vertices: &[([f32; 3], u32)], models: &[[f32; 16]]) -> Vec<([f32; 3], u32)> {
@@ -110,7 +194,11 @@ pub fn scene_partition(world: &[([f32; 3], u32)], max_size: usize) -> VertexClus
         }
     }
     let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f32>().sqrt();
-    partition(world, max_size, diagonal / EXTENT_DIVISOR)
+    let kd = partition(world, max_size, diagonal / EXTENT_DIVISOR);
+    match std::env::var("TMP_LLOYD").ok().and_then(|v| v.parse().ok()) {
+        Some(it) => lloyd(world, &kd, max_size, diagonal / EXTENT_DIVISOR, it),
+        None => kd,
+    }
 }
 
 /// Per cluster, how far the pixels of its triangles may lie from its vertices (`pixel_clusters=world`: a
