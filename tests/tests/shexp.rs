@@ -284,7 +284,7 @@ fn per_vertex_clusters_match_the_twin() {
     let n = r.scene.blockers.sphere_count as usize;
     let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
     nodes.truncate(2 * n - 1);
-    let (clusters, _) = scene_clusters(&gpu, g, (T * T) as usize).expect("clusters");
+    let (clusters, _) = scene_clusters(&gpu, g, (T * T) as usize, false).expect("clusters");
     r.destroy(&gpu);
     assert!(clusters.count() > 10, "{} clusters", clusters.count());
     let o = ShexpOptions { cluster: T, ..ShexpOptions::default() };
@@ -332,7 +332,7 @@ fn world_pixel_clusters_match_the_twin() {
     let gpu = engine_tests::gpu();
     let (scene, _) = scene_with(cube_of_spheres());
     const T: u32 = 4;
-    let spec = format!("shexp:cluster={T},pixel_clusters=world");
+    let spec = format!("shexp:cluster={T},pixel_clusters=world,vertex_clusters=lloyd");
     let settings = RenderSettings { width: W, height: H, technique: spec.clone(), ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
     r.render(&gpu).expect("frame");
@@ -346,9 +346,9 @@ fn world_pixel_clusters_match_the_twin() {
     let n = r.scene.blockers.sphere_count as usize;
     let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
     nodes.truncate(2 * n - 1);
-    let (clusters, reach) = scene_clusters(&gpu, g, (T * T) as usize).expect("clusters");
+    let (clusters, reach) = scene_clusters(&gpu, g, (T * T) as usize, true).expect("clusters");
     r.destroy(&gpu);
-    let o = ShexpOptions { cluster: T, world_pixel_clusters: true, ..ShexpOptions::default() };
+    let o = ShexpOptions { cluster: T, world_pixel_clusters: true, lloyd: true, ..ShexpOptions::default() };
     let twin = Twin::new(&o, &scene.environment).expect("twin tables");
     let cuts: Vec<_> = (0..clusters.count())
         .map(|c| {

@@ -131,6 +131,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "on: the paper's radius scale α for spheres straddling the tangent plane (§6.2, our reading: the blocker grows from the inside rule's on the sphere to S' at twice the circle's radius), removing the jump as a receiver leaves a sphere; off: the rule without α that the reference and isg use",
     },
     OptionSpec {
+        key: "vertex_clusters",
+        aliases: &[],
+        kind: Kind::Choice(&["kd", "lloyd"]),
+        default: Some("kd"),
+        help: "how the vertex clusters are made (per vertex, and per pixel with pixel_clusters=world): kd (median splits, at most T² vertices and 1/8 of the scene's diagonal a side) or lloyd (the same, then up to 10 Lloyd iterations, the paper's clustering, re-split to the same bounds)",
+    },
+    OptionSpec {
         key: "pixel_clusters",
         aliases: &[],
         kind: Kind::Choice(&["tiles", "world"]),
@@ -190,6 +197,8 @@ pub struct ShexpOptions {
     pub cluster: u32,
     /// `ratio_vectors=on`: the clusters' nodes taken whole are scaled by W (Eq. 37–38).
     pub ratio_vectors: bool,
+    /// `vertex_clusters=lloyd`: the k-d partition refined by Lloyd iterations.
+    pub lloyd: bool,
     /// `alpha_scale=on`: the §6.2 rule with the radius scale α (`geom::blocker_for_receiver_alpha`).
     pub alpha_scale: bool,
     /// `pixel_clusters=world`: per pixel, the clusters are the per-vertex ones (by each triangle's first
@@ -213,6 +222,7 @@ impl Default for ShexpOptions {
             cluster: 16,
             ratio_vectors: true,
             alpha_scale: true,
+            lloyd: false,
             world_pixel_clusters: false,
         }
     }
@@ -238,6 +248,7 @@ impl ShexpOptions {
             cluster: o.int("cluster") as u32,
             ratio_vectors: o.choice("ratio_vectors") == "on",
             alpha_scale: o.choice("alpha_scale") == "on",
+            lloyd: o.choice("vertex_clusters") == "lloyd",
             world_pixel_clusters: o.choice("pixel_clusters") == "world",
         }
     }
@@ -311,9 +322,14 @@ pub type SceneClusters = (vertex_clusters::VertexClusters, Vec<f32>);
 pub const MAX_WORLD_PIXEL_VERTICES: u32 = 1 << 24;
 
 /// The vertex clusters of `geometry` at most `max_size` each ([`vertex_clusters::scene_partition`] of its
-/// vertices under the instances' current transforms, both read back) and their pixel reach
-/// ([`vertex_clusters::pixel_reach`]): what the technique uses, for tests to check against.
-pub fn scene_clusters(gpu: &Gpu, geometry: &crate::resources::Geometry, max_size: usize) -> Result<SceneClusters> {
+/// vertices under the instances' current transforms, both read back; Lloyd-refined when `lloyd`) and their
+/// pixel reach ([`vertex_clusters::pixel_reach`]): what the technique uses, for tests to check against.
+pub fn scene_clusters(
+    gpu: &Gpu,
+    geometry: &crate::resources::Geometry,
+    max_size: usize,
+    lloyd: bool,
+) -> Result<SceneClusters> {
     let mut v: Vec<crate::resources::layout::GpuVertex> = gpu.read_buffer(&geometry.vertices)?;
     v.truncate(geometry.vertex_count as usize);
     let objects: Vec<crate::resources::layout::GpuObject> = gpu.read_buffer(&geometry.objects)?;
@@ -322,7 +338,7 @@ pub fn scene_clusters(gpu: &Gpu, geometry: &crate::resources::Geometry, max_size
     indices.truncate(geometry.index_count as usize);
     let points: Vec<([f32; 3], u32)> = v.iter().map(|x| (x.position, x.instance.max(0.0) as u32)).collect();
     let world = vertex_clusters::world_positions(&points, &models);
-    let c = vertex_clusters::scene_partition(&world, max_size);
+    let c = vertex_clusters::scene_partition(&world, max_size, lloyd);
     let reach = vertex_clusters::pixel_reach(&world, &indices, &c);
     Ok((c, reach))
 }
@@ -522,7 +538,7 @@ impl Shexp {
                 return Ok(c.clone());
             }
         }
-        let c = scene_clusters(gpu, geometry, max_size)?;
+        let c = scene_clusters(gpu, geometry, max_size, self.options.lloyd)?;
         self.partition = Some((key, c.clone()));
         Ok(c)
     }

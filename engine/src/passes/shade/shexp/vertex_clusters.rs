@@ -157,7 +157,9 @@ pub fn lloyd(
         let sub: Vec<([f32; 3], u32)> = m.iter().map(|&v| (vertices[v as usize].0, 0)).collect();
         let split = partition(&sub, max_size, max_extent);
         for c in 0..split.count() {
-            items.extend(split.items[split.offsets[c] as usize..split.offsets[c + 1] as usize].iter().map(|&i| m[i as usize]));
+            items.extend(
+                split.items[split.offsets[c] as usize..split.offsets[c + 1] as usize].iter().map(|&i| m[i as usize]),
+            );
             offsets.push(items.len() as u32);
         }
     }
@@ -183,9 +185,12 @@ pub fn world_positions(vertices: &[([f32; 3], u32)], models: &[[f32; 16]]) -> Ve
         .collect()
 }
 
+/// Lloyd iterations run by `vertex_clusters=lloyd` (at most; they stop when no vertex moves).
+pub const LLOYD_ITERATIONS: usize = 10;
+
 /// The partition the technique uses: [`partition`] of the world positions with `max_extent` the scene's
-/// bounding-box diagonal over [`EXTENT_DIVISOR`].
-pub fn scene_partition(world: &[([f32; 3], u32)], max_size: usize) -> VertexClusters {
+/// bounding-box diagonal over [`EXTENT_DIVISOR`], refined by [`LLOYD_ITERATIONS`] of [`lloyd`] when `lloyd`.
+pub fn scene_partition(world: &[([f32; 3], u32)], max_size: usize, lloyd_refine: bool) -> VertexClusters {
     let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
     for (p, _) in world.iter().filter(|(p, _)| p.iter().all(|x| x.is_finite())) {
         for a in 0..3 {
@@ -195,9 +200,10 @@ pub fn scene_partition(world: &[([f32; 3], u32)], max_size: usize) -> VertexClus
     }
     let diagonal = (0..3).map(|a| (hi[a] - lo[a]).max(0.0).powi(2)).sum::<f32>().sqrt();
     let kd = partition(world, max_size, diagonal / EXTENT_DIVISOR);
-    match std::env::var("TMP_LLOYD").ok().and_then(|v| v.parse().ok()) {
-        Some(it) => lloyd(world, &kd, max_size, diagonal / EXTENT_DIVISOR, it),
-        None => kd,
+    if lloyd_refine {
+        lloyd(world, &kd, max_size, diagonal / EXTENT_DIVISOR, LLOYD_ITERATIONS)
+    } else {
+        kd
     }
 }
 
@@ -294,8 +300,55 @@ mod tests {
         }
         assert!(c.count() >= 36, "{} clusters", c.count());
         // scene_partition takes the bound from the diagonal: 16 √2 / 8 ≈ 2.83 here, coarser than 2.
-        let s = scene_partition(&ground, 256);
+        let s = scene_partition(&ground, 256, false);
         assert!(s.count() > 2 && s.count() <= c.count(), "{} and {} clusters", s.count(), c.count());
+    }
+
+    #[test]
+    fn lloyd_keeps_the_bounds_and_does_not_spread_the_clusters() {
+        // Two instances: a 40 × 40 grid and a stretched 30 × 30 one, as in the partition test.
+        let mut v = grid(40, 0, 0.0);
+        v.extend(grid(30, 1, 100.0).into_iter().map(|(p, i)| ([p[0] * 3.0, p[1], p[2]], i)));
+        let spread = |c: &VertexClusters| {
+            (0..c.count())
+                .map(|k| {
+                    let m = &c.items[c.offsets[k] as usize..c.offsets[k + 1] as usize];
+                    let mean = (0..3)
+                        .map(|a| m.iter().map(|&i| v[i as usize].0[a] as f64).sum::<f64>() / m.len() as f64)
+                        .collect::<Vec<_>>();
+                    m.iter()
+                        .map(|&i| (0..3).map(|a| (v[i as usize].0[a] as f64 - mean[a]).powi(2)).sum::<f64>())
+                        .sum::<f64>()
+                })
+                .sum::<f64>()
+        };
+        let kd = partition(&v, 100, 30.0);
+        let l = lloyd(&v, &kd, 100, 30.0, LLOYD_ITERATIONS);
+        assert_eq!(l.items.len(), v.len());
+        let mut seen = vec![false; v.len()];
+        for k in 0..l.count() {
+            let m = &l.items[l.offsets[k] as usize..l.offsets[k + 1] as usize];
+            assert!(!m.is_empty() && m.len() <= 100, "cluster {k}: {}", m.len());
+            for &i in m {
+                assert!(!seen[i as usize]);
+                seen[i as usize] = true;
+                assert_eq!(v[i as usize].1, v[m[0] as usize].1, "a cluster spans two instances");
+                assert_eq!(l.cluster_of[i as usize], k as u32);
+            }
+        }
+        let (a, b) = (spread(&kd), spread(&l));
+        eprintln!(
+            "within-cluster squared distances: k-d {a:.0}, Lloyd {b:.0} ({} and {} clusters)",
+            kd.count(),
+            l.count()
+        );
+        assert!(b <= a, "Lloyd should not spread the clusters: {b} > {a}");
+        // Deterministic, and a degenerate input survives.
+        assert_eq!(l, lloyd(&v, &kd, 100, 30.0, LLOYD_ITERATIONS));
+        let same = vec![([1.0, 2.0, 3.0], 0u32); 300];
+        let c = lloyd(&same, &partition(&same, 64, 1.0), 64, 1.0, 5);
+        assert_eq!(c.items.len(), 300);
+        assert!((0..c.count()).all(|k| c.offsets[k + 1] - c.offsets[k] <= 64));
     }
 
     #[test]
