@@ -500,3 +500,73 @@ fn write_band_limited_environment() {
     engine::output::write_exr(std::path::Path::new(&out), w, h, &rgba).expect("write");
     eprintln!("wrote {out}: {} band-limited to order {n}", src.display());
 }
+
+// bake=on (§7: static receivers keep their visibility), per vertex on `chess` (pieces slide one at a time):
+// a vertex whose cluster's cut (spheres and W) equals the last frame's and which has not moved reuses its
+// visibility vector. (1) A second frame of an unchanged scene marks every cluster unchanged and gives the same
+// image; (2) after a piece moves, and (3) two frames after the environment turns, the image equals that of
+// `bake=off` at the same pose bit for bit; (3)'s second frame reuses every cluster. (In (2) none is reused: every cluster's cut on the
+// board holds the moving piece, whole or in a node taken whole, so its spheres or W change.)
+#[test]
+fn bake_reuses_unchanged_clusters_and_changes_nothing() {
+    use engine::renderer::Renderer;
+    let gpu = engine_tests::gpu();
+    let loaded = demos::scenes::load("chess", None, &Default::default()).expect("chess");
+    let animation = loaded.animation.clone().expect("chess moves");
+    let make = |spec: &str| {
+        let settings =
+            RenderSettings { width: 24, height: 18, technique: spec.into(), per_vertex: true, ..Default::default() };
+        Renderer::new(&gpu, &loaded.scene, settings).expect("renderer")
+    };
+    let radiance = |r: &Renderer| -> Vec<[f32; 4]> {
+        let g = &r.scene.geometry;
+        let mut v: Vec<[f32; 4]> = gpu.read_buffer(&g.vertex_radiance).expect("radiance");
+        v.truncate(g.vertex_count as usize);
+        v
+    };
+    // "… per frame, … ; U % of the clusters unchanged since the frame before …"
+    let unchanged = |r: &mut Renderer| -> f64 {
+        let line = r.technique_report(&gpu).expect("report").counts.join(" ");
+        let head = &line[..line.find(" % of the clusters unchanged").unwrap_or_else(|| panic!("{line}"))];
+        head.split_whitespace().last().unwrap().parse().unwrap()
+    };
+    let mut on = make("shexp");
+    let mut off = make("shexp:bake=off");
+    // A time at which a piece slides (1.5 s) and one a little later.
+    for r in [&mut on, &mut off] {
+        animation.apply(r, 1.5).expect("pose");
+        r.render(&gpu).expect("frame");
+    }
+    let first = radiance(&on);
+    assert_eq!(first, radiance(&off), "the first frame computes everything");
+    let _ = unchanged(&mut on);
+    on.render(&gpu).expect("frame");
+    let u1 = unchanged(&mut on);
+    assert_eq!(radiance(&on), first, "an unchanged frame gives the same image");
+    assert!(u1 > 99.9, "every cluster unchanged on a still frame: {u1} %");
+    for r in [&mut on, &mut off] {
+        animation.apply(r, 1.6).expect("pose");
+        r.render(&gpu).expect("frame");
+    }
+    let u2 = unchanged(&mut on);
+    let moved = radiance(&on);
+    assert_ne!(moved, first, "the piece moved");
+    assert_eq!(moved, radiance(&off), "after a piece moved: bake=on equals bake=off");
+    // An environment turn makes the technique afresh (Renderer::set_environment_rotation): its first frame
+    // computes everything, the next still frame reuses everything, under the turned lighting.
+    for r in [&mut on, &mut off] {
+        r.set_environment_rotation(&gpu, 90.0).expect("turn");
+        r.render(&gpu).expect("frame");
+        r.render(&gpu).expect("frame");
+    }
+    let u3 = unchanged(&mut on);
+    assert_eq!(radiance(&on), radiance(&off), "after the environment turned: bake=on equals bake=off");
+    assert_ne!(radiance(&on), moved, "the lighting turned");
+    eprintln!(
+        "bake: unchanged clusters {u1:.1} % (still), {u2:.1} % (a piece moved), {u3:.1} % (two frames after a turn)"
+    );
+    assert!(u3 > 49.9, "the second frame after the turn reuses every cluster: {u3} % over both frames");
+    on.destroy(&gpu);
+    off.destroy(&gpu);
+    gpu.shutdown().expect("clean teardown");
+}

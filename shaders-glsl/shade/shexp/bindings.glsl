@@ -33,6 +33,10 @@ struct ShexpParams {
     uint vertex_clusters;  // clusters of the per-vertex target (VertexCluster* below)
     uint pixel_world;      // 1: per pixel, the vertex clusters (pixel_clusters=world)
     uint alpha_scale;      // 1: the §6.2 rule with the radius scale α (blocker_for_receiver_alpha)
+    uint bake;             // 1: per vertex, a receiver whose cluster's cut did not change keeps its g (bake=on)
+    uint pad3;
+    uint pad4;
+    uint pad5;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7
     vec4 window[2];        // window factors α_l applied to the lights' caps (the environment's are baked)
 };
@@ -76,5 +80,13 @@ layout(std430, binding = 29) readonly buffer VertexClusterReach { float vc_reach
 // Work counts (twin: engine::passes::shade::shexp::ClusterStats): clusters with receivers, cut entries,
 // the largest cut, clusters over the cap, nodes taken whole, clusters the pool could not hold.
 layout(std430, binding = 24) buffer ShexpStats { uint shexp_stats[8]; };
+// bake=on (§7, static receivers keep their visibility): per cluster the hash of its last cut (entries with W,
+// count, state; 0: none yet), and per vertex its last visibility record: g (SHN_C floats), the blockers
+// counted, and the position and shading normal it was computed for (engine::passes::shade::shexp::BAKE_EXTRA).
+layout(std430, binding = 30) buffer ClusterHashes { uvec2 cluster_hashes[]; };
+layout(std430, binding = 31) buffer ShexpBaked { float shexp_baked[]; };
+#define SHEXP_BAKE_STRIDE (SHN_C + 7)
+// Cluster head flag (head.y bit 2): the cut equals the last frame's (bake=on).
+#define SHEXP_CLUSTER_UNCHANGED 4u
 
 #endif // SHEXP_BINDINGS_GLSL

@@ -59,6 +59,17 @@ shared uint s_k[64];
 shared uint s_nodes[SHEXP_CLUSTER_CAP];
 shared uint s_count;
 shared uint s_base;
+shared uint s_state;
+shared uvec2 s_hash[64];
+
+// One 32-bit word into a running hash (a multiply–xorshift mixer, two lanes with different constants).
+uvec2 hash_word(uvec2 h, uint x) {
+    h ^= uvec2(x);
+    h *= uvec2(0x9e3779b1u, 0x85ebca77u);
+    h ^= h >> 15u;
+    h *= uvec2(0xc2b2ae3du, 0x27d4eb2fu);
+    return h ^ (h >> 13u);
+}
 
 // W of node v at p* (see 3. above).
 void ratio_vector(uint v, vec3 ps, out float w[8]) {
@@ -214,6 +225,7 @@ void main() {
         }
         s_count = count;
         s_base = base;
+        s_state = state;
         cluster_heads[c] = uvec4(count, state, 0u, base);
         if (!empty) {
             atomicAdd(shexp_stats[0], 1u);
@@ -230,6 +242,7 @@ void main() {
     // 3. Ratio vectors, one entry per thread at a time.
     uint count = s_count;
     uint base = s_base;
+    uvec2 hash = uvec2(0u);
     for (uint e = tid; e < count; e += 64u) {
         uint v = s_nodes[e];
         float w[8];
@@ -239,6 +252,30 @@ void main() {
         ce.w_lo = vec4(w[0], w[1], w[2], w[3]);
         ce.w_hi = vec4(w[4], w[5], w[6], w[7]);
         cluster_cut[base + e] = ce;
+        // bake=on: the entry, with its place in the list, into this thread's share of the cut's hash.
+        uvec2 h = hash_word(uvec2(0x2545f491u, 0x4f1bbcddu), e);
+        for (int k = 0; k < 4; ++k) h = hash_word(h, floatBitsToUint(ce.sphere[k]));
+        for (int k = 0; k < 4; ++k) h = hash_word(h, floatBitsToUint(ce.w_lo[k]));
+        for (int k = 0; k < 4; ++k) h = hash_word(h, floatBitsToUint(ce.w_hi[k]));
+        hash ^= h;
+    }
+    // bake=on: the cut's hash (XOR of its entries' hashes, then its count and state); the cluster is
+    // unchanged when it equals the last frame's. The shade pass then reuses its vertices' records.
+    s_hash[tid] = hash;
+    barrier();
+    for (uint h = 32u; h > 0u; h >>= 1) {
+        if (tid < h) s_hash[tid] ^= s_hash[tid + h];
+        barrier();
+    }
+    if (tid == 0u && shx.bake != 0u) {
+        uvec2 cut_hash = hash_word(hash_word(s_hash[0], count), s_state);
+        cut_hash.x |= 1u;  // never 0, the "no cut yet" of a fresh buffer
+        bool unchanged = s_state == 0u && !empty && cluster_hashes[c] == cut_hash;
+        cluster_hashes[c] = cut_hash;
+        if (unchanged) {
+            cluster_heads[c].y = s_state | SHEXP_CLUSTER_UNCHANGED;
+            atomicAdd(shexp_stats[6], 1u);
+        }
     }
     // Receivers in the cluster (its head's z).
     s_k[tid] = valid;

@@ -131,6 +131,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "on: the paper's radius scale α for spheres straddling the tangent plane (§6.2, our reading: the blocker grows from the inside rule's on the sphere to S' at twice the circle's radius), removing the jump as a receiver leaves a sphere; off: the rule without α that the reference and isg use",
     },
     OptionSpec {
+        key: "bake",
+        aliases: &[],
+        kind: Kind::Choice(&["on", "off"]),
+        default: Some("on"),
+        help: "per vertex (§7, static receivers keep their visibility): a vertex that has not moved, in a cluster whose cut (spheres and W) equals the last frame's, reuses its last visibility vector g instead of accumulating and exponentiating again (the same g, so the same image); off: every vertex every frame",
+    },
+    OptionSpec {
         key: "vertex_clusters",
         aliases: &[],
         kind: Kind::Choice(&["kd", "lloyd"]),
@@ -199,6 +206,8 @@ pub struct ShexpOptions {
     pub ratio_vectors: bool,
     /// `vertex_clusters=lloyd`: the k-d partition refined by Lloyd iterations.
     pub lloyd: bool,
+    /// `bake=on`: per vertex, unchanged clusters' unmoved vertices reuse their last visibility.
+    pub bake: bool,
     /// `alpha_scale=on`: the §6.2 rule with the radius scale α (`geom::blocker_for_receiver_alpha`).
     pub alpha_scale: bool,
     /// `pixel_clusters=world`: per pixel, the clusters are the per-vertex ones (by each triangle's first
@@ -223,6 +232,7 @@ impl Default for ShexpOptions {
             ratio_vectors: true,
             alpha_scale: true,
             lloyd: false,
+            bake: true,
             world_pixel_clusters: false,
         }
     }
@@ -249,6 +259,7 @@ impl ShexpOptions {
             ratio_vectors: o.choice("ratio_vectors") == "on",
             alpha_scale: o.choice("alpha_scale") == "on",
             lloyd: o.choice("vertex_clusters") == "lloyd",
+            bake: o.choice("bake") == "on",
             world_pixel_clusters: o.choice("pixel_clusters") == "world",
         }
     }
@@ -300,6 +311,9 @@ pub struct GpuShexpParams {
     pub pixel_world: u32,
     /// 1: the §6.2 rule with the radius scale α (`alpha_scale=on`).
     pub alpha_scale: u32,
+    /// 1: per vertex, reuse the visibility of unmoved vertices of unchanged clusters (`bake=on`).
+    pub bake: u32,
+    pub pad: [u32; 3],
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -342,6 +356,10 @@ pub fn scene_clusters(
     let reach = vertex_clusters::pixel_reach(&world, &indices, &c);
     Ok((c, reach))
 }
+
+/// Floats of a vertex's `bake=on` record past its n² visibility coefficients: the blockers counted, the
+/// position and the shading normal (`SHEXP_BAKE_STRIDE` in bindings.glsl).
+pub const BAKE_EXTRA: usize = 7;
 
 /// `SHEXP_CLUSTER_CAP` of shaders-glsl/shade/shexp/bindings.glsl: cut entries per receiver cluster.
 pub const CLUSTER_CAP: u32 = 512;
@@ -386,6 +404,8 @@ pub struct ClusterStats {
     pub whole: u64,
     /// Clusters the shared pool could not hold (their receivers then cut per point).
     pub pool_exhausted: u64,
+    /// Clusters whose cut equalled the last frame's (`bake=on`: their unmoved vertices reused their visibility).
+    pub unchanged: u64,
 }
 
 impl ClusterStats {
@@ -395,23 +415,27 @@ impl ClusterStats {
             format!(
                 "shexp: {:.0} receiver clusters per frame, {:.1} cut spheres per cluster (max {}), {:.1} % of them \
                  nodes taken whole with ratio vectors; {} clusters over {CLUSTER_CAP} entries and {} past the pool \
-                 cut per receiver instead",
+                 cut per receiver instead; {:.1} % of the clusters unchanged since the frame before (bake: their \
+                 unmoved vertices kept their visibility)",
                 self.clusters as f64 / self.frames.max(1) as f64,
                 self.entries as f64 / self.clusters as f64,
                 self.max_entries,
                 100.0 * self.whole as f64 / self.entries.max(1) as f64,
                 self.overflowed,
-                self.pool_exhausted
+                self.pool_exhausted,
+                100.0 * self.unchanged as f64 / self.clusters as f64
             )
         })
     }
 }
 
-/// The cluster heads, the pool of cut entries and its use counter, for up to `capacity` clusters.
+/// The cluster heads, the pool of cut entries and its use counter, and the cuts' hashes (`bake=on`), for up
+/// to `capacity` clusters.
 struct ClusterBuffers {
     heads: Buffer,
     cut: Buffer,
     pool: Buffer,
+    hashes: Buffer,
     capacity: u32,
     /// Entries the pool holds.
     entries: u64,
@@ -427,6 +451,9 @@ pub struct Shexp {
     clusters: std::cell::RefCell<Vec<ClusterBuffers>>,
     stats: Option<Buffer>,
     frames: std::cell::Cell<u64>,
+    /// `bake=on`, per vertex: the vertices' visibility records ([`BAKE_EXTRA`] + n² floats each) and how many
+    /// vertices they hold; made on the first per-vertex frame, kept until destroy.
+    baked: std::cell::RefCell<Vec<(u32, Buffer)>>,
     /// The vertex clusters and their pixel reach, keyed by (vertex count, largest cluster), computed on the
     /// first `prepare`.
     partition: Option<((u32, usize), SceneClusters)>,
@@ -486,6 +513,8 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         vertex_clusters: 0,
         pixel_world: o.world_pixel_clusters as u32,
         alpha_scale: o.alpha_scale as u32,
+        bake: (o.bake && o.cluster_side() > 0) as u32,
+        pad: [0; 3],
         h_star,
         window,
     }
@@ -508,6 +537,7 @@ impl Shexp {
             clusters: std::cell::RefCell::new(Vec::new()),
             stats: None,
             frames: std::cell::Cell::new(0),
+            baked: std::cell::RefCell::new(Vec::new()),
             partition: None,
             options,
             prepared: None,
@@ -527,9 +557,10 @@ impl Shexp {
 
     /// The vertex clusters of the scene ([`vertex_clusters::scene_partition`] of the vertices read back once
     /// from the static vertex buffer, under the instances' transforms of this first `prepare`), at most
-    /// `max_size` each, with their pixel reach. Kept across `prepare`s (an environment turn prepares again,
-    /// every frame under `--env-spin`): a technique serves one renderer, whose object-space vertices never
-    /// change.
+    /// `max_size` each, with their pixel reach. Kept across `prepare`s for the technique's life (a technique
+    /// serves one renderer, whose object-space vertices never change). An environment turn makes a new
+    /// technique (`Renderer::set_environment_rotation`, every frame under `--env-spin`), which partitions
+    /// again, and loses the `bake=on` records with it.
     fn vertex_clusters(&mut self, gpu: &Gpu, inputs: &ShadeInputs, max_size: usize) -> Result<SceneClusters> {
         let geometry = inputs.geometry()?;
         let key = (geometry.vertex_count, max_size);
@@ -575,15 +606,33 @@ impl Shexp {
                 MAX_CLUSTER_BYTES >> 20
             )));
         }
-        let [heads, cut, pool] = crate::resources::make_buffers(
+        let zeros = vec![[0u32; 2]; capacity as usize];
+        let [heads, cut, pool, hashes] = crate::resources::make_buffers(
             gpu,
             [
                 &|| gpu.create_buffer("shexp-cluster-heads", BufferDesc::gpu_only(16 * capacity as u64)),
                 &|| gpu.create_buffer("shexp-cluster-cut", BufferDesc::gpu_only(bytes)),
                 &|| gpu.create_buffer("shexp-cluster-pool", BufferDesc::gpu_only(16)),
+                &|| gpu.upload_buffer("shexp-cluster-hashes", BufferDesc::gpu_only(0), &zeros),
             ],
         )?;
-        all.push(ClusterBuffers { heads, cut, pool, capacity, entries });
+        all.push(ClusterBuffers { heads, cut, pool, hashes, capacity, entries });
+        Ok(())
+    }
+
+    /// The `bake=on` records for at least `vertices` vertices (one record without: the shade pass binds them
+    /// either way), zeroed when made. A zero record is never reused even in a cluster marked unchanged: its
+    /// normal (0, 0, 0) matches no receiver's unit shading normal. Earlier, smaller ones stay alive until
+    /// destroy (an earlier frame may still read them).
+    fn ensure_baked(&self, gpu: &Gpu, vertices: u32) -> Result<()> {
+        let mut all = self.baked.borrow_mut();
+        if all.last().is_some_and(|(n, _)| *n >= vertices.max(1)) {
+            return Ok(());
+        }
+        let stride = self.options.order * self.options.order + BAKE_EXTRA;
+        let floats = stride * vertices.max(1) as usize;
+        let buffer = gpu.upload_buffer("shexp-baked", BufferDesc::gpu_only(0), &vec![0f32; floats])?;
+        all.push((vertices.max(1), buffer));
         Ok(())
     }
 
@@ -600,6 +649,7 @@ impl Shexp {
             overflowed: g(3),
             whole: g(4),
             pool_exhausted: g(5),
+            unchanged: g(6),
         })
     }
 
@@ -734,6 +784,7 @@ impl Technique for Shexp {
                 Binding::buffer("VertexClusterOffsets", &p.vertex_clusters[0]),
                 Binding::buffer("VertexClusterItems", &p.vertex_clusters[1]),
                 Binding::buffer("VertexClusterReach", &p.vertex_clusters[3]),
+                Binding::buffer("ClusterHashes", &cb.hashes),
             ];
             let per_vertex = match target {
                 ShadeTarget::Pixel { .. } if world => {
@@ -765,12 +816,20 @@ impl Technique for Shexp {
             )?;
             self.frames.set(self.frames.get() + 1);
         }
+        let vertices = match target {
+            ShadeTarget::Vertex { count, .. } => count,
+            ShadeTarget::Pixel { .. } => 0,
+        };
+        self.ensure_baked(rec.gpu(), vertices)?;
+        let baked = self.baked.borrow();
+        let baked = &baked.last().ok_or_else(|| GpuError::Other("internal: shexp bake records missing".into()))?.1;
         self.pipelines.record(
             rec,
             "shexp",
             inputs,
             target,
             &[
+                Binding::buffer("ShexpBaked", baked),
                 Binding::buffer("ClusterHeads", &cb.heads),
                 Binding::buffer("ClusterCut", &cb.cut),
                 Binding::buffer("ShexpStats", stats),
@@ -795,6 +854,10 @@ impl Technique for Shexp {
             gpu.destroy_buffer(b.heads);
             gpu.destroy_buffer(b.cut);
             gpu.destroy_buffer(b.pool);
+            gpu.destroy_buffer(b.hashes);
+        }
+        for (_, b) in self.baked.take() {
+            gpu.destroy_buffer(b);
         }
         if let Some(b) = self.stats.take() {
             gpu.destroy_buffer(b);
