@@ -23,6 +23,17 @@ impl VertexClusters {
     pub fn count(&self) -> usize {
         self.offsets.len().saturating_sub(1)
     }
+
+    /// The partition of `vertices` vertices given by its cluster lists (`items[offsets[c] .. offsets[c + 1]]`).
+    fn from_lists(offsets: Vec<u32>, items: Vec<u32>, vertices: usize) -> Self {
+        let mut cluster_of = vec![0u32; vertices];
+        for c in 0..offsets.len() - 1 {
+            for &v in &items[offsets[c] as usize..offsets[c + 1] as usize] {
+                cluster_of[v as usize] = c as u32;
+            }
+        }
+        Self { offsets, items, cluster_of }
+    }
 }
 
 /// The fraction of the scene's size (its vertices' bounding-box diagonal) that bounds a cluster's
@@ -77,13 +88,7 @@ pub fn partition(vertices: &[([f32; 3], u32)], max_size: usize, max_extent: f32)
             offsets.push(items.len() as u32);
         }
     }
-    let mut cluster_of = vec![0u32; vertices.len()];
-    for c in 0..offsets.len() - 1 {
-        for &v in &items[offsets[c] as usize..offsets[c + 1] as usize] {
-            cluster_of[v as usize] = c as u32;
-        }
-    }
-    VertexClusters { offsets, items, cluster_of }
+    VertexClusters::from_lists(offsets, items, vertices.len())
 }
 
 /// Centroids a vertex may move to in one Lloyd step: its cluster's and the nearest others of its instance.
@@ -163,13 +168,7 @@ pub fn lloyd(
             offsets.push(items.len() as u32);
         }
     }
-    let mut cluster_of = vec![0u32; vertices.len()];
-    for c in 0..offsets.len() - 1 {
-        for &v in &items[offsets[c] as usize..offsets[c + 1] as usize] {
-            cluster_of[v as usize] = c as u32;
-        }
-    }
-    VertexClusters { offsets, items, cluster_of }
+    VertexClusters::from_lists(offsets, items, vertices.len())
 }
 
 /// World positions of object-space vertices (`position`, instance) under the instances' column-major model
