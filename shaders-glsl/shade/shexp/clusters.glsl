@@ -23,7 +23,11 @@
 
 layout(local_size_x = 64) in;
 // grow_by_reach 1: the clusters serve the per-pixel target (pixel_clusters=world), 0: their own vertices.
-layout(push_constant) uniform ClusterPush { uint grow_by_reach; } cluster_push;
+// bake 1: the per-vertex target with bake=on (the cuts are hashed and compared with the last frame's).
+layout(push_constant) uniform ClusterPush {
+    uint grow_by_reach;
+    uint bake;
+} cluster_push;
 
 uint cluster_side() {
     return max(shx.cluster, 1u);
@@ -253,6 +257,7 @@ void main() {
         ce.w_hi = vec4(w[4], w[5], w[6], w[7]);
         cluster_cut[base + e] = ce;
         // bake=on: the entry, with its place in the list, into this thread's share of the cut's hash.
+        if (cluster_push.bake == 0u) continue;
         uvec2 h = hash_word(uvec2(0x2545f491u, 0x4f1bbcddu), e);
         for (int k = 0; k < 4; ++k) h = hash_word(h, floatBitsToUint(ce.sphere[k]));
         for (int k = 0; k < 4; ++k) h = hash_word(h, floatBitsToUint(ce.w_lo[k]));
@@ -267,7 +272,7 @@ void main() {
         if (tid < h) s_hash[tid] ^= s_hash[tid + h];
         barrier();
     }
-    if (tid == 0u && shx.bake != 0u) {
+    if (tid == 0u && cluster_push.bake != 0u) {
         uvec2 cut_hash = hash_word(hash_word(s_hash[0], count), s_state);
         cut_hash.x |= 1u;  // never 0, the "no cut yet" of a fresh buffer
         bool unchanged = s_state == 0u && !empty && cluster_hashes[c] == cut_hash;

@@ -392,6 +392,8 @@ pub fn cluster_count(target: &ShadeTarget, t: u32) -> u32 {
 pub struct ClusterStats {
     /// Cluster-pass dispatches (frames shaded with clusters).
     pub frames: u64,
+    /// Of them, per-vertex frames with `bake=on`.
+    pub bake_frames: u64,
     /// Clusters holding at least one receiver, summed over the frames.
     pub clusters: u64,
     /// Cut entries (leaves and nodes taken whole), summed.
@@ -415,15 +417,22 @@ impl ClusterStats {
             format!(
                 "shexp: {:.0} receiver clusters per frame, {:.1} cut spheres per cluster (max {}), {:.1} % of them \
                  nodes taken whole with ratio vectors; {} clusters over {CLUSTER_CAP} entries and {} past the pool \
-                 cut per receiver instead; {:.1} % of the clusters unchanged since the frame before (bake: their \
-                 unmoved vertices kept their visibility)",
+                 cut per receiver instead{}",
                 self.clusters as f64 / self.frames.max(1) as f64,
                 self.entries as f64 / self.clusters as f64,
                 self.max_entries,
                 100.0 * self.whole as f64 / self.entries.max(1) as f64,
                 self.overflowed,
                 self.pool_exhausted,
-                100.0 * self.unchanged as f64 / self.clusters as f64
+                if self.bake_frames > 0 {
+                    format!(
+                        "; {:.1} % of the clusters unchanged since the frame before (bake: their unmoved vertices \
+                         kept their visibility)",
+                        100.0 * self.unchanged as f64 / self.clusters as f64
+                    )
+                } else {
+                    String::new()
+                }
             )
         })
     }
@@ -451,6 +460,8 @@ pub struct Shexp {
     clusters: std::cell::RefCell<Vec<ClusterBuffers>>,
     stats: Option<Buffer>,
     frames: std::cell::Cell<u64>,
+    /// Of them, per-vertex frames with `bake=on` (whose cuts were compared with the last frame's).
+    bake_frames: std::cell::Cell<u64>,
     /// `bake=on`, per vertex: the vertices' visibility records ([`BAKE_EXTRA`] + n² floats each) and how many
     /// vertices they hold; made on the first per-vertex frame, kept until destroy.
     baked: std::cell::RefCell<Vec<(u32, Buffer)>>,
@@ -537,6 +548,7 @@ impl Shexp {
             clusters: std::cell::RefCell::new(Vec::new()),
             stats: None,
             frames: std::cell::Cell::new(0),
+            bake_frames: std::cell::Cell::new(0),
             baked: std::cell::RefCell::new(Vec::new()),
             partition: None,
             options,
@@ -643,6 +655,7 @@ impl Shexp {
         let g = |i: usize| v.get(i).copied().unwrap_or(0) as u64;
         Ok(ClusterStats {
             frames: self.frames.get(),
+            bake_frames: self.bake_frames.get(),
             clusters: g(0),
             entries: g(1),
             max_entries: g(2),
@@ -655,6 +668,7 @@ impl Shexp {
 
     fn reset_cluster_stats(&self, gpu: &Gpu) -> Result<()> {
         self.frames.set(0);
+        self.bake_frames.set(0);
         match &self.stats {
             Some(b) => gpu.copy_to_buffer(b, bytemuck::cast_slice(&[0u32; 8])),
             None => Ok(()),
@@ -807,14 +821,14 @@ impl Technique for Shexp {
             rec.barrier();
             let pipeline = self.cluster_pipeline(rec.gpu(), per_vertex)?;
             let rows = clusters.div_ceil(CLUSTERS_PER_ROW);
-            let grow_by_reach = (world && matches!(target, ShadeTarget::Pixel { .. })) as u32;
-            rec.dispatch(
-                pipeline,
-                &b,
-                bytemuck::bytes_of(&grow_by_reach),
-                [clusters.min(CLUSTERS_PER_ROW) * 64, rows, 1],
-            )?;
+            // (grow_by_reach, bake): see ClusterPush in clusters.glsl.
+            let is_pixel = matches!(target, ShadeTarget::Pixel { .. });
+            let push = [(world && is_pixel) as u32, (self.options.bake && !is_pixel) as u32];
+            rec.dispatch(pipeline, &b, bytemuck::cast_slice(&push), [clusters.min(CLUSTERS_PER_ROW) * 64, rows, 1])?;
             self.frames.set(self.frames.get() + 1);
+            if push[1] != 0 {
+                self.bake_frames.set(self.bake_frames.get() + 1);
+            }
         }
         let vertices = match target {
             ShadeTarget::Vertex { count, .. } => count,
