@@ -89,6 +89,15 @@ void shexp_visit_weighted(ClusterEntry ce) {
     g_blockers += 1u;
 }
 
+// The receiver's bake=on record: its vertex, or its pixel (row-major).
+uint shexp_bake_record() {
+#ifdef SHEXP_PIXEL
+    return (gl_GlobalInvocationID.y * frame.size.x + gl_GlobalInvocationID.x) * uint(SHEXP_BAKE_STRIDE);
+#else
+    return gl_GlobalInvocationID.x * uint(SHEXP_BAKE_STRIDE);
+#endif
+}
+
 #ifdef SHEXP_PIXEL
 // The G-buffer's geometric w at this pixel: its triangle's first vertex (defined in pixel.comp, after
 // target_pixel.glsl declares the image).
@@ -210,11 +219,11 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
         if (shx.cluster > 0u) {
             uint c = shexp_cluster_of_invocation();
             uvec4 head = cluster_heads[c];
-#ifndef SHEXP_PIXEL
-            // bake=on: the cluster's cut is the last frame's; if this vertex has not moved either, its
+            // bake=on: the cluster's cut is the last frame's; if this receiver has not moved either, its
             // visibility is the one it recorded then.
-            uint rec = gl_GlobalInvocationID.x * uint(SHEXP_BAKE_STRIDE);
-            bool unchanged = shx.bake != 0u && (head.y & SHEXP_CLUSTER_UNCHANGED) != 0u;
+            uint rec = shexp_bake_record();
+            bool unchanged = shx.bake != 0u && (head.y & SHEXP_CLUSTER_UNCHANGED) != 0u
+                          && rec + uint(SHEXP_BAKE_STRIDE) <= uint(shexp_baked.length());
             if (unchanged && shexp_baked[rec + SHN_C + 1] == p.x && shexp_baked[rec + SHN_C + 2] == p.y
                 && shexp_baked[rec + SHN_C + 3] == p.z && shexp_baked[rec + SHN_C + 4] == n.x
                 && shexp_baked[rec + SHN_C + 5] == n.y && shexp_baked[rec + SHN_C + 6] == n.z) {
@@ -222,7 +231,6 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
                 g_blockers = uint(shexp_baked[rec + SHN_C]);
                 return;
             }
-#endif
             if ((head.y & 3u) == 0u) {
                 for (uint e = 0u; e < min(head.x, uint(SHEXP_CLUSTER_CAP)); ++e) {
                     shexp_visit_weighted(cluster_cut[head.w + e]);
@@ -257,11 +265,12 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
     if (bad) {
         for (int i = 0; i < SHN_C; ++i) g[i] = 0.0;
     }
-#ifndef SHEXP_PIXEL
-    // bake=on: this vertex's record for the next frame (only from its cluster's cut: a cluster cut per
+    // bake=on: this receiver's record for the next frame (only from its cluster's cut: a cluster cut per
     // receiver after an overflow is never marked unchanged).
     if (shx.bake != 0u && shx.cluster > 0u && shx.sphere_count > 0u) {
-        uint rec = gl_GlobalInvocationID.x * uint(SHEXP_BAKE_STRIDE);
+        uint rec = shexp_bake_record();
+        // Records for fewer receivers than the target has (too many pixels for the budget): no baking.
+        if (rec + uint(SHEXP_BAKE_STRIDE) > uint(shexp_baked.length())) return;
         for (int i = 0; i < SHN_C; ++i) shexp_baked[rec + i] = g[i];
         shexp_baked[rec + SHN_C] = float(g_blockers);
         shexp_baked[rec + SHN_C + 1] = p.x;
@@ -271,7 +280,6 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
         shexp_baked[rec + SHN_C + 5] = n.y;
         shexp_baked[rec + SHN_C + 6] = n.z;
     }
-#endif
 }
 
 float shexp_h_star(int l) {

@@ -133,9 +133,9 @@ pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         key: "bake",
         aliases: &[],
-        kind: Kind::Choice(&["on", "off"]),
-        default: Some("on"),
-        help: "per vertex (§7, static receivers keep their visibility): a vertex that has not moved, in a cluster whose cut (spheres and W) equals the last frame's, reuses its last visibility vector g instead of accumulating and exponentiating again (the same g, so the same image); off: every vertex every frame",
+        kind: Kind::Choice(&["off", "on"]),
+        default: Some("off"),
+        help: "on (§7, static receivers keep their visibility): a receiver (vertex, or pixel up to 256 MiB of records) that has not moved, in a cluster whose cut (spheres and W) equals the last frame's, reuses its last visibility vector g instead of accumulating and exponentiating again (the same g, so the same image); off: every receiver every frame, so that timings measure the whole computation",
     },
     OptionSpec {
         key: "vertex_clusters",
@@ -232,7 +232,7 @@ impl Default for ShexpOptions {
             ratio_vectors: true,
             alpha_scale: true,
             lloyd: false,
-            bake: true,
+            bake: false,
             world_pixel_clusters: false,
         }
     }
@@ -360,6 +360,10 @@ pub fn scene_clusters(
 /// Floats of a vertex's `bake=on` record past its n² visibility coefficients: the blockers counted, the
 /// position and the shading normal (`SHEXP_BAKE_STRIDE` in bindings.glsl).
 pub const BAKE_EXTRA: usize = 7;
+
+/// `bake=on` per pixel keeps records only while they take at most this much device memory (n = 4 at
+/// 1920×1080 needs 182 MiB; n = 8 at that size would need 562 MiB and is not baked).
+pub const MAX_BAKE_BYTES: u64 = 256 << 20;
 
 /// `SHEXP_CLUSTER_CAP` of shaders-glsl/shade/shexp/bindings.glsl: cut entries per receiver cluster.
 pub const CLUSTER_CAP: u32 = 512;
@@ -632,7 +636,25 @@ impl Shexp {
         Ok(())
     }
 
-    /// The `bake=on` records for at least `vertices` vertices (one record without: the shade pass binds them
+    /// How many receivers of `target` keep `bake=on` records: every vertex, or every pixel while their
+    /// records fit in [`MAX_BAKE_BYTES`]; 0 with `bake=off`, without clusters, or past the budget.
+    fn bake_records(&self, target: &ShadeTarget) -> u32 {
+        if !self.options.bake || self.options.cluster_side() == 0 {
+            return 0;
+        }
+        let receivers = match target {
+            ShadeTarget::Vertex { count, .. } => return *count,
+            ShadeTarget::Pixel { radiance, .. } => radiance.desc.width as u64 * radiance.desc.height as u64,
+        };
+        let bytes = 4 * (self.options.order * self.options.order + BAKE_EXTRA) as u64 * receivers;
+        if bytes <= MAX_BAKE_BYTES {
+            receivers as u32
+        } else {
+            0
+        }
+    }
+
+    /// The `bake=on` records for at least `vertices` receivers (one record without: the shade pass binds them
     /// either way), zeroed when made. A zero record is never reused even in a cluster marked unchanged: its
     /// normal (0, 0, 0) matches no receiver's unit shading normal. Earlier, smaller ones stay alive until
     /// destroy (an earlier frame may still read them).
@@ -823,18 +845,14 @@ impl Technique for Shexp {
             let rows = clusters.div_ceil(CLUSTERS_PER_ROW);
             // (grow_by_reach, bake): see ClusterPush in clusters.glsl.
             let is_pixel = matches!(target, ShadeTarget::Pixel { .. });
-            let push = [(world && is_pixel) as u32, (self.options.bake && !is_pixel) as u32];
+            let push = [(world && is_pixel) as u32, (self.bake_records(&target) > 0) as u32];
             rec.dispatch(pipeline, &b, bytemuck::cast_slice(&push), [clusters.min(CLUSTERS_PER_ROW) * 64, rows, 1])?;
             self.frames.set(self.frames.get() + 1);
             if push[1] != 0 {
                 self.bake_frames.set(self.bake_frames.get() + 1);
             }
         }
-        let vertices = match target {
-            ShadeTarget::Vertex { count, .. } => count,
-            ShadeTarget::Pixel { .. } => 0,
-        };
-        self.ensure_baked(rec.gpu(), vertices)?;
+        self.ensure_baked(rec.gpu(), self.bake_records(&target))?;
         let baked = self.baked.borrow();
         let baked = &baked.last().ok_or_else(|| GpuError::Other("internal: shexp bake records missing".into()))?.1;
         self.pipelines.record(
