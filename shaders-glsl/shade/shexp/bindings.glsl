@@ -33,7 +33,7 @@ struct ShexpParams {
     uint vertex_clusters;  // clusters of the per-vertex target (VertexCluster* below)
     uint pixel_world;      // 1: per pixel, the vertex clusters (pixel_clusters=world)
     uint alpha_scale;      // 1: the §6.2 rule with the radius scale α (blocker_for_receiver_alpha)
-    uint bake;             // 1: per vertex, a receiver whose cluster's cut did not change keeps its g (bake=on)
+    uint bake;             // 1: a receiver whose cluster's cut did not change keeps its g (bake=on)
     uint pad3;
     uint pad4;
     uint pad5;
@@ -81,8 +81,9 @@ layout(std430, binding = 29) readonly buffer VertexClusterReach { float vc_reach
 // the largest cut, clusters over the cap, nodes taken whole, clusters the pool could not hold.
 layout(std430, binding = 24) buffer ShexpStats { uint shexp_stats[8]; };
 // bake=on (§7, static receivers keep their visibility): per cluster the hash of its last cut (entries with W,
-// count, state; 0: none yet), and per vertex its last visibility record: g (SHN_C floats), the blockers
-// counted, and the position and shading normal it was computed for (engine::passes::shade::shexp::BAKE_EXTRA).
+// count, state; 0: none yet), and per receiver (vertex, or pixel row-major) its last visibility record: g
+// (SHN_C floats), the blockers counted, and the position and shading normal it was computed for
+// (engine::passes::shade::shexp::BAKE_EXTRA). Fewer records than receivers: no baking (shade.glsl checks).
 layout(std430, binding = 30) buffer ClusterHashes { uvec2 cluster_hashes[]; };
 layout(std430, binding = 31) buffer ShexpBaked { float shexp_baked[]; };
 #define SHEXP_BAKE_STRIDE (SHN_C + 7)

@@ -16,6 +16,8 @@
 //    dropped), then per band w_l = Σ_m f_b,lm f_d,lm / Σ_m f_b,lm² (Eq. 37). A leaf has W = 1. Both are
 //    the raw logs (no tangent-plane rule): p* lies outside every node taken whole, and the §6.2 rules are
 //    applied per receiver in shade.glsl to the node's sphere, which W then scales (Eq. 38).
+// 4. bake=on: a hash of the cut (every entry's sphere and W in order, the count, the state), compared with
+//    the cluster's hash of the last frame; equal marks the cluster unchanged (head.y bit 2) for the shade pass.
 // f64 twin: engine::passes::shade::shexp::cpu::Twin::cluster_cut.
 #define BVH_STACK_SIZE 64
 #include "../common.glsl"
@@ -23,7 +25,8 @@
 
 layout(local_size_x = 64) in;
 // grow_by_reach 1: the clusters serve the per-pixel target (pixel_clusters=world), 0: their own vertices.
-// bake 1: the per-vertex target with bake=on (the cuts are hashed and compared with the last frame's).
+// bake 1: bake=on with records for this target's receivers (the cuts are hashed and compared with the last
+// frame's).
 layout(push_constant) uniform ClusterPush {
     uint grow_by_reach;
     uint bake;
@@ -265,7 +268,7 @@ void main() {
         hash ^= h;
     }
     // bake=on: the cut's hash (XOR of its entries' hashes, then its count and state); the cluster is
-    // unchanged when it equals the last frame's. The shade pass then reuses its vertices' records.
+    // unchanged when it equals the last frame's. The shade pass then reuses its unmoved receivers' records.
     s_hash[tid] = hash;
     barrier();
     for (uint h = 32u; h > 0u; h >>= 1) {

@@ -206,7 +206,7 @@ pub struct ShexpOptions {
     pub ratio_vectors: bool,
     /// `vertex_clusters=lloyd`: the k-d partition refined by Lloyd iterations.
     pub lloyd: bool,
-    /// `bake=on`: per vertex, unchanged clusters' unmoved vertices reuse their last visibility.
+    /// `bake=on`: unchanged clusters' unmoved receivers reuse their last visibility.
     pub bake: bool,
     /// `alpha_scale=on`: the §6.2 rule with the radius scale α (`geom::blocker_for_receiver_alpha`).
     pub alpha_scale: bool,
@@ -311,7 +311,8 @@ pub struct GpuShexpParams {
     pub pixel_world: u32,
     /// 1: the §6.2 rule with the radius scale α (`alpha_scale=on`).
     pub alpha_scale: u32,
-    /// 1: per vertex, reuse the visibility of unmoved vertices of unchanged clusters (`bake=on`).
+    /// 1: reuse the visibility of unmoved receivers of unchanged clusters (`bake=on`; per pixel only where
+    /// the records fit, which the shader checks against the records buffer's length).
     pub bake: u32,
     pub pad: [u32; 3],
     pub h_star: [f32; 8],
@@ -357,7 +358,7 @@ pub fn scene_clusters(
     Ok((c, reach))
 }
 
-/// Floats of a vertex's `bake=on` record past its n² visibility coefficients: the blockers counted, the
+/// Floats of a receiver's `bake=on` record past its n² visibility coefficients: the blockers counted, the
 /// position and the shading normal (`SHEXP_BAKE_STRIDE` in bindings.glsl).
 pub const BAKE_EXTRA: usize = 7;
 
@@ -396,7 +397,7 @@ pub fn cluster_count(target: &ShadeTarget, t: u32) -> u32 {
 pub struct ClusterStats {
     /// Cluster-pass dispatches (frames shaded with clusters).
     pub frames: u64,
-    /// Of them, per-vertex frames with `bake=on`.
+    /// Of them, frames with `bake=on` records for their receivers.
     pub bake_frames: u64,
     /// Clusters holding at least one receiver, summed over the frames.
     pub clusters: u64,
@@ -410,7 +411,7 @@ pub struct ClusterStats {
     pub whole: u64,
     /// Clusters the shared pool could not hold (their receivers then cut per point).
     pub pool_exhausted: u64,
-    /// Clusters whose cut equalled the last frame's (`bake=on`: their unmoved vertices reused their visibility).
+    /// Clusters whose cut equalled the last frame's (`bake=on`: their unmoved receivers reused their visibility).
     pub unchanged: u64,
 }
 
@@ -430,8 +431,8 @@ impl ClusterStats {
                 self.pool_exhausted,
                 if self.bake_frames > 0 {
                     format!(
-                        "; {:.1} % of the clusters unchanged since the frame before (bake: their unmoved vertices \
-                         kept their visibility)",
+                        "; {:.1} % of the clusters unchanged since the frame before (bake: their unmoved \
+                         receivers kept their visibility)",
                         100.0 * self.unchanged as f64 / self.clusters as f64
                     )
                 } else {
@@ -464,10 +465,10 @@ pub struct Shexp {
     clusters: std::cell::RefCell<Vec<ClusterBuffers>>,
     stats: Option<Buffer>,
     frames: std::cell::Cell<u64>,
-    /// Of them, per-vertex frames with `bake=on` (whose cuts were compared with the last frame's).
+    /// Of them, frames with `bake=on` records (whose cuts were compared with the last frame's).
     bake_frames: std::cell::Cell<u64>,
-    /// `bake=on`, per vertex: the vertices' visibility records ([`BAKE_EXTRA`] + n² floats each) and how many
-    /// vertices they hold; made on the first per-vertex frame, kept until destroy.
+    /// `bake=on`: the receivers' visibility records ([`BAKE_EXTRA`] + n² floats each) and how many
+    /// receivers they hold (the last is the largest and in use); made on the first frame, kept until destroy.
     baked: std::cell::RefCell<Vec<(u32, Buffer)>>,
     /// The vertex clusters and their pixel reach, keyed by (vertex count, largest cluster), computed on the
     /// first `prepare`.
@@ -654,19 +655,19 @@ impl Shexp {
         }
     }
 
-    /// The `bake=on` records for at least `vertices` receivers (one record without: the shade pass binds them
+    /// The `bake=on` records for at least `receivers` receivers (one record without: the shade pass binds them
     /// either way), zeroed when made. A zero record is never reused even in a cluster marked unchanged: its
     /// normal (0, 0, 0) matches no receiver's unit shading normal. Earlier, smaller ones stay alive until
     /// destroy (an earlier frame may still read them).
-    fn ensure_baked(&self, gpu: &Gpu, vertices: u32) -> Result<()> {
+    fn ensure_baked(&self, gpu: &Gpu, receivers: u32) -> Result<()> {
         let mut all = self.baked.borrow_mut();
-        if all.last().is_some_and(|(n, _)| *n >= vertices.max(1)) {
+        if all.last().is_some_and(|(n, _)| *n >= receivers.max(1)) {
             return Ok(());
         }
         let stride = self.options.order * self.options.order + BAKE_EXTRA;
-        let floats = stride * vertices.max(1) as usize;
+        let floats = stride * receivers.max(1) as usize;
         let buffer = gpu.upload_buffer("shexp-baked", BufferDesc::gpu_only(0), &vec![0f32; floats])?;
-        all.push((vertices.max(1), buffer));
+        all.push((receivers.max(1), buffer));
         Ok(())
     }
 
