@@ -68,13 +68,13 @@ struct Args {
     #[arg(long)]
     no_plane_blockers: bool,
     /// Keep converged references in this folder, keyed by everything that determines them (scene, env, size,
-    /// material overrides incl. --brdf, spheres, visibility, fraction, max spp), and reuse them. The fraction rule converges
+    /// material overrides incl. --brdf, spheres, visibility, fraction, max spp, --time), and reuse them. The fraction rule converges
     /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
     /// Measure the scene as its motion poses it at this time (s), frozen: instance transforms and bones from
-    /// the motion, a simulated cloth run on the GPU to that time (demos::scenes::cloth::frozen_at). Not with
-    /// --reference-cache (its key does not hold the time).
+    /// the motion, a simulated cloth run on the GPU to that time (demos::scenes::cloth::frozen_at). With
+    /// --reference-cache the time is part of the key (the motion and the cloth simulation are deterministic).
     #[arg(long)]
     time: Option<f32>,
 }
@@ -115,8 +115,8 @@ fn run() -> Result<()> {
     }
     let gpu = Gpu::new(&GpuDesc::default())?;
     if let Some(t) = args.time {
-        if !t.is_finite() || t < 0.0 || args.reference_cache.is_some() {
-            bail!("--time {t}: a finite time ≥ 0, and not with --reference-cache");
+        if !t.is_finite() || t < 0.0 {
+            bail!("--time {t}: a finite time ≥ 0");
         }
         let entry = demos::scenes::find(&args.scene)?;
         if let Some(a) = demos::Animation::for_entry(entry, &scene) {
@@ -197,7 +197,8 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
                 args.fraction,
                 args.max_spp,
                 args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
-            ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" };
+            ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" }
+                + &args.time.map(|t| format!("|time={}", t.to_bits())).unwrap_or_default();
             let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
             dir.join(format!("{}-{vis_name}-{hash:016x}.refimg", args.scene))
         });
