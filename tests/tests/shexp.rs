@@ -254,13 +254,38 @@ fn receiver_clusters_match_the_twin_and_ratio_vectors_help() {
     gpu.shutdown().expect("clean teardown");
 }
 
+/// What the vertex-cluster twin tests read back after a frame of `r`: the world vertices, the GPU's BVH nodes
+/// and its sphere count, and the technique's vertex clusters of at most `max_size` with their pixel reach.
+struct ClusterFrame {
+    world: Vec<engine::resources::layout::GpuVertex>,
+    nodes: Vec<engine::blockers::bvh::GpuBvhNode>,
+    spheres: u32,
+    clusters: engine::passes::shade::shexp::vertex_clusters::VertexClusters,
+    reach: Vec<f32>,
+}
+
+fn read_cluster_frame(
+    gpu: &engine::gpu::Gpu,
+    r: &engine::renderer::Renderer,
+    max_size: usize,
+    lloyd: bool,
+) -> ClusterFrame {
+    let g = &r.scene.geometry;
+    let mut world: Vec<engine::resources::layout::GpuVertex> = gpu.read_buffer(&g.world_vertices).expect("vertices");
+    world.truncate(g.vertex_count as usize);
+    let n = r.scene.blockers.sphere_count;
+    let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
+    nodes.truncate((2 * n as usize).saturating_sub(1));
+    let (clusters, reach) = engine::passes::shade::shexp::scene_clusters(gpu, g, max_size, lloyd).expect("clusters");
+    ClusterFrame { world, nodes, spheres: n, clusters, reach }
+}
+
 // Receiver clusters per vertex: spatial groups of at most T² vertices of one instance (vertex_clusters.rs, from
 // the vertex buffer under the instances' transforms), one cut per group. The GPU's per-vertex radiance
 // against the twin's cluster pass over the same groups (the technique's partition function on the same
 // buffers), at every 3rd vertex.
 #[test]
 fn per_vertex_clusters_match_the_twin() {
-    use engine::passes::shade::shexp::scene_clusters;
     use engine::renderer::Renderer;
     use engine::resources::layout::GpuVertex;
     let gpu = engine_tests::gpu();
@@ -271,20 +296,8 @@ fn per_vertex_clusters_match_the_twin() {
         RenderSettings { width: W, height: H, technique: spec.clone(), per_vertex: true, ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
     r.render(&gpu).expect("frame");
-    let g = &r.scene.geometry;
-    let count = g.vertex_count as usize;
-    let read = |b| {
-        let mut v: Vec<GpuVertex> = gpu.read_buffer(b).expect("vertices");
-        v.truncate(count);
-        v
-    };
-    let world = read(&g.world_vertices);
-    let mut radiance: Vec<[f32; 4]> = gpu.read_buffer(&g.vertex_radiance).expect("radiance");
-    radiance.truncate(count);
-    let n = r.scene.blockers.sphere_count as usize;
-    let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
-    nodes.truncate(2 * n - 1);
-    let (clusters, _) = scene_clusters(&gpu, g, (T * T) as usize, false).expect("clusters");
+    let radiance: Vec<[f32; 4]> = gpu.read_buffer(&r.scene.geometry.vertex_radiance).expect("radiance");
+    let ClusterFrame { world, nodes, spheres: n, clusters, .. } = read_cluster_frame(&gpu, &r, (T * T) as usize, false);
     r.destroy(&gpu);
     assert!(clusters.count() > 10, "{} clusters", clusters.count());
     let o = ShexpOptions { cluster: T, ..ShexpOptions::default() };
@@ -296,7 +309,7 @@ fn per_vertex_clusters_match_the_twin() {
     for c in 0..clusters.count() {
         let members = &clusters.items[clusters.offsets[c] as usize..clusters.offsets[c + 1] as usize];
         let items: Vec<DVec3> = members.iter().map(|&v| p_of(&world[v as usize])).collect();
-        let cut = twin.cluster_cut(&nodes, n as u32, &items).expect("no overflow here");
+        let cut = twin.cluster_cut(&nodes, n, &items).expect("no overflow here");
         whole += cut.entries.iter().filter(|(_, w)| w[0] != 1.0).count();
         for &v in members.iter().step_by(3) {
             let x = &world[v as usize];
@@ -326,9 +339,7 @@ fn per_vertex_clusters_match_the_twin() {
 // The GPU's pixels against the twin's cluster pass over the same vertex clusters, grown by the same reach.
 #[test]
 fn world_pixel_clusters_match_the_twin() {
-    use engine::passes::shade::shexp::scene_clusters;
     use engine::renderer::Renderer;
-    use engine::resources::layout::GpuVertex;
     let gpu = engine_tests::gpu();
     let (scene, _) = scene_with(cube_of_spheres());
     const T: u32 = 4;
@@ -340,13 +351,8 @@ fn world_pixel_clusters_match_the_twin() {
     assert_finite(&hdr, &spec);
     let image = |i| gpu.read_image_rgba32f(i).expect("g-buffer");
     let (pos, nrm, geo) = (image(&r.gbuffer.position), image(&r.gbuffer.normal), image(&r.gbuffer.geometric));
-    let g = &r.scene.geometry;
-    let mut world: Vec<GpuVertex> = gpu.read_buffer(&g.world_vertices).expect("vertices");
-    world.truncate(g.vertex_count as usize);
-    let n = r.scene.blockers.sphere_count as usize;
-    let mut nodes = gpu.read_buffer::<engine::blockers::bvh::GpuBvhNode>(&r.scene.blockers.bvh_nodes).expect("nodes");
-    nodes.truncate(2 * n - 1);
-    let (clusters, reach) = scene_clusters(&gpu, g, (T * T) as usize, true).expect("clusters");
+    let ClusterFrame { world, nodes, spheres: n, clusters, reach } =
+        read_cluster_frame(&gpu, &r, (T * T) as usize, true);
     r.destroy(&gpu);
     let o = ShexpOptions { cluster: T, world_pixel_clusters: true, lloyd: true, ..ShexpOptions::default() };
     let twin = Twin::new(&o, &scene.environment).expect("twin tables");
@@ -355,7 +361,7 @@ fn world_pixel_clusters_match_the_twin() {
             let members = &clusters.items[clusters.offsets[c] as usize..clusters.offsets[c + 1] as usize];
             let items: Vec<DVec3> =
                 members.iter().map(|&v| Vec3::from_array(world[v as usize].position).as_dvec3()).collect();
-            twin.cluster_cut_grown(&nodes, n as u32, &items, reach[c] as f64).expect("no overflow here")
+            twin.cluster_cut_grown(&nodes, n, &items, reach[c] as f64).expect("no overflow here")
         })
         .collect();
     let albedo = [0.7, 0.8];

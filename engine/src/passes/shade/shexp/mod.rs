@@ -336,6 +336,18 @@ pub type SceneClusters = (vertex_clusters::VertexClusters, Vec<f32>);
 /// `pixel_clusters=world`: the G-buffer stores a triangle's first vertex index as an f32, exact up to 2²⁴.
 pub const MAX_WORLD_PIXEL_VERTICES: u32 = 1 << 24;
 
+/// `pixel_clusters=world` refuses a scene of more than [`MAX_WORLD_PIXEL_VERTICES`] vertices (their indices
+/// would round in the G-buffer), with a message that names the way out.
+pub fn check_world_pixel_vertices(o: &ShexpOptions, vertex_count: u32) -> Result<()> {
+    if o.world_pixel_clusters && vertex_count > MAX_WORLD_PIXEL_VERTICES {
+        return Err(GpuError::Other(format!(
+            "shexp: pixel_clusters=world needs at most {MAX_WORLD_PIXEL_VERTICES} vertices (the G-buffer holds a \
+             triangle's first vertex as a float); this scene has {vertex_count}: use pixel_clusters=tiles"
+        )));
+    }
+    Ok(())
+}
+
 /// The vertex clusters of `geometry` at most `max_size` each ([`vertex_clusters::scene_partition`] of its
 /// vertices under the instances' current transforms, both read back; Lloyd-refined when `lloyd`) and their
 /// pixel reach ([`vertex_clusters::pixel_reach`]): what the technique uses, for tests to check against.
@@ -718,18 +730,11 @@ impl Technique for Shexp {
         }
         let o = self.options.clone();
         let o = &o;
+        check_world_pixel_vertices(o, inputs.geometry()?.vertex_count)?;
         let tables = MathTables::load(gpu, &crate::tables::default_dir(), &tables_of(o.order))
             .map_err(|e| GpuError::Other(e.to_string()))?;
         let ol = tables.get(MathTable::ShOl(o.order)).map(|t| t.header.axes[0].hi).unwrap_or(0.0);
         let gamma = tables.get(MathTable::ShGamma(o.order)).map(|t| t.header.entry_count() as u32).unwrap_or(0);
-        if o.world_pixel_clusters && inputs.geometry()?.vertex_count > MAX_WORLD_PIXEL_VERTICES {
-            tables.destroy(gpu);
-            return Err(GpuError::Other(format!(
-                "shexp: pixel_clusters=world needs at most {MAX_WORLD_PIXEL_VERTICES} vertices (the G-buffer holds a \
-                 triangle's first vertex as a float); this scene has {}: use pixel_clusters=tiles",
-                inputs.geometry()?.vertex_count
-            )));
-        }
         let (clusters, reach) = match o.cluster_side() {
             0 => (vertex_clusters::VertexClusters { offsets: vec![0], items: vec![0], cluster_of: vec![0] }, vec![0.0]),
             t => match self.vertex_clusters(gpu, inputs, (t * t) as usize) {
@@ -899,5 +904,19 @@ impl Technique for Shexp {
             gpu.destroy_compute_pipeline(p);
         }
         self.pipelines.destroy(gpu);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn world_pixel_clusters_refuse_more_vertices_than_the_g_buffer_holds() {
+        let world = ShexpOptions { world_pixel_clusters: true, ..ShexpOptions::default() };
+        assert!(check_world_pixel_vertices(&world, MAX_WORLD_PIXEL_VERTICES).is_ok());
+        let e = check_world_pixel_vertices(&world, MAX_WORLD_PIXEL_VERTICES + 1).unwrap_err().to_string();
+        assert!(e.contains("pixel_clusters=tiles") && e.contains("16777217"), "{e}");
+        assert!(check_world_pixel_vertices(&ShexpOptions::default(), u32::MAX).is_ok(), "tiles: no limit");
     }
 }

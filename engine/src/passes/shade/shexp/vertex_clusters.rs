@@ -178,8 +178,7 @@ pub fn world_positions(vertices: &[([f32; 3], u32)], models: &[[f32; 16]]) -> Ve
         .iter()
         .map(|&(p, inst)| {
             let Some(m) = models.get(inst as usize) else { return (p, inst) };
-            let w = std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
-            (w, inst)
+            (glam::Mat4::from_cols_array(m).transform_point3(glam::Vec3::from(p)).to_array(), inst)
         })
         .collect()
 }
