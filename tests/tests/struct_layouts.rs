@@ -15,7 +15,7 @@ use engine::passes::blocker_bvh::RadixPush;
 use engine::passes::blocker_spheres::AnimatePush;
 use engine::passes::cloth::ClothPush;
 use engine::passes::shade::isg::{GpuIsgParams, GpuSgLobe};
-use engine::passes::shade::lobes::GpuLobesParams;
+use engine::passes::shade::lobes::{GpuEnvLobe, GpuLobesParams};
 use engine::passes::shade::reference::ReferenceParams;
 use engine::passes::skin::SkinPush;
 use engine::passes::thin_shells::ThinShellsPush;
@@ -134,8 +134,13 @@ fn host_structs() -> Vec<HostLayout> {
         layout_check!(GpuSgLobe, "shade/isg/pixel.comp", struct "EnvLobe", [axis, lambda, mu, pad0]),
         layout_check!(GpuLobesParams, "shade/lobes/pixel.comp", struct "LobesParams", [
             sphere_count, depth, conservative, threshold, weight, extent, light_mode, energy_scale, split, sharpen,
-            take_whole, coarsen, light_weights
+            take_whole, coarsen, light_weights, env_lobe_count, pad0, pad1, pad2
         ]),
+        // read only by the env=lobes variant (LOBES_ENV_K > 0)
+        engine::gpu::layout_check::HostLayout {
+            defines: &[("LOBES_ENV_K", "4")],
+            ..layout_check!(GpuEnvLobe, "shade/lobes/pixel.comp", struct "EnvLobe", [axis_e, scale])
+        },
     ]
 }
 

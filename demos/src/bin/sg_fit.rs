@@ -1,16 +1,19 @@
-//! `sg_fit`: relative L2 error of the greedy K-lobe SG fit of environment maps, K = 1..=32, at the
-//! resolution technique `isg` fits (128×64), as a table and an SVG plot.
+//! `sg_fit`: relative L2 error of the greedy K-lobe fit of environment maps, K = 1..=32, at the
+//! resolution techniques `isg` and `lobes` fit (128×64), as a table and an SVG plot: spherical Gaussians
+//! (`--kernel sg`, technique `isg`) or cosine lobes (`--kernel lobe`, technique `lobes:env=lobes`). The
+//! refined fits also get their irradiance error (engine-math `fit_irradiance_error`: what diffuse
+//! shading sees of the fit).
 //!
-//! `cargo run --release -p demos --bin sg_fit [-- --env assets/envmaps/sunset.exr --plot out/sg_fit.svg]`
+//! `cargo run --release -p demos --bin sg_fit [-- --kernel lobe --env assets/envmaps/sunset.exr --plot out/lobe_fit.svg]`
 
 use anyhow::Context;
 use clap::Parser;
 use engine::math::prefilter::resample;
-use engine::math::sg::{fit_envmap_sgs, refine_envmap_sgs};
+use engine::math::sg::{fit_envmap, fit_irradiance_error, refine_envmap, EnvKernel};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
-#[command(about = "SG fit error of environment maps against the number of lobes K")]
+#[command(about = "SG or cosine-lobe fit error of environment maps against the number of lobes K")]
 struct Args {
     /// Environment maps (default: the project's courtyard.exr and sunset.exr).
     #[arg(long)]
@@ -18,8 +21,12 @@ struct Args {
     /// Largest K.
     #[arg(long, default_value_t = 32)]
     k_max: usize,
-    #[arg(long, default_value = "out/sg_fit.svg")]
-    plot: PathBuf,
+    /// The lobes fitted: sg (spherical Gaussians, technique isg) or lobe (cosine lobes, technique lobes).
+    #[arg(long, default_value = "sg", value_parser = ["sg", "lobe"])]
+    kernel: String,
+    /// The plot (default: out/sg_fit.svg, or out/lobe_fit.svg for --kernel lobe).
+    #[arg(long)]
+    plot: Option<PathBuf>,
 }
 
 const ROWS: [usize; 8] = [1, 2, 4, 8, 10, 16, 20, 32];
@@ -37,7 +44,13 @@ fn run() -> anyhow::Result<()> {
     } else {
         args.env.clone()
     };
-    let mut plot = plot::Plot::new("Greedy SG fit of the environment (128×64)")
+    let (kernel, label) =
+        if args.kernel == "lobe" { (EnvKernel::CosineLobe, "cosine-lobe") } else { (EnvKernel::Sg, "SG") };
+    let out = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(if kernel == EnvKernel::Sg { "out/sg_fit.svg" } else { "out/lobe_fit.svg" }));
+    let mut plot = plot::Plot::new(format!("Greedy {label} fit of the environment (128×64)"))
         .x_axis("lobes K", plot::Scale::Linear)
         .y_axis("relative L2 error", plot::Scale::Log10);
     let mut curves: Vec<(String, Vec<f64>)> = Vec::new();
@@ -45,17 +58,22 @@ fn run() -> anyhow::Result<()> {
         let env = engine::scene::load_environment(path)?;
         let t0 = std::time::Instant::now();
         let small = resample(&env, 128, 64);
-        let (fits, errors) = fit_envmap_sgs(&small, args.k_max);
+        let (fits, errors) = fit_envmap(&small, args.k_max, kernel);
         eprintln!("{}: fitted K = 1..{} in {:.1} s", path.display(), args.k_max, t0.elapsed().as_secs_f64());
         let name = path.file_stem().and_then(|s| s.to_str()).context("file name")?.to_string();
         plot =
             plot.line(format!("{name} greedy"), errors.iter().enumerate().map(|(k, e)| ((k + 1) as f64, *e)).collect());
         // The refined fit (what `isg` uses) at the K of the table.
         let t0 = std::time::Instant::now();
+        let mut irradiance = Vec::new();
         let refined: Vec<(f64, f64)> = ROWS
             .iter()
             .filter(|&&k| k <= args.k_max)
-            .map(|&k| (k as f64, refine_envmap_sgs(&small, &fits[k - 1], REFINE_ROUNDS).1))
+            .map(|&k| {
+                let (lobes, e) = refine_envmap(&small, &fits[k - 1], REFINE_ROUNDS, kernel);
+                irradiance.push(fit_irradiance_error(&small, &lobes, kernel));
+                (k as f64, e)
+            })
             .collect();
         eprintln!("{}: refined in {:.1} s", path.display(), t0.elapsed().as_secs_f64());
         plot = plot
@@ -65,6 +83,7 @@ fn run() -> anyhow::Result<()> {
             ROWS.iter().filter(|&&k| k <= args.k_max).map(|&k| errors[k - 1]).collect::<Vec<f64>>(),
         ));
         curves.push((format!("{name} refined"), refined.iter().map(|r| r.1).collect()));
+        curves.push((format!("{name} refined, irradiance"), irradiance));
     }
     let header: Vec<&str> = curves.iter().map(|(n, _)| n.as_str()).collect();
     println!("| K | {} |", header.join(" | "));
@@ -73,10 +92,10 @@ fn run() -> anyhow::Result<()> {
         let row: Vec<String> = curves.iter().map(|(_, e)| format!("{:.3}", e[r])).collect();
         println!("| {k} | {} |", row.join(" | "));
     }
-    if let Some(dir) = args.plot.parent() {
+    if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    plot.write(&args.plot)?;
-    println!("wrote {}", args.plot.display());
+    plot.write(&out)?;
+    println!("wrote {}", out.display());
     Ok(())
 }

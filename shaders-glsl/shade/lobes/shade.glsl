@@ -72,6 +72,8 @@ struct LobesParams {
     float take_whole;     // BVH nodes below this many cells of the finest mask level are taken whole (0: leaves only)
     uint coarsen;         // on overflow, retries of the cut with take_whole doubled
     float light_weights[8];  // per-depth factors of the light masks' leaf weights (0..6 used)
+    uint env_lobe_count;     // env=lobes: lobes in EnvLobes (0 with env=map)
+    uint pad0, pad1, pad2;
 };
 layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
@@ -99,6 +101,22 @@ struct Lobe {
     float e;
     vec3 s;  // RGB scale
 };
+
+// env=lobes (LOBES_ENV_K = the option K > 0): the environment as fitted cosine lobes
+// scale · max(axis·v, 0)^e (twin: engine::passes::shade::lobes::GpuEnvLobe), and the receiver's products
+// R_r × L_k (k outer, r inner), which every leaf of the normal's mask multiplies.
+#ifndef LOBES_ENV_K
+#define LOBES_ENV_K 0
+#endif
+struct EnvLobe {
+    vec4 axis_e;
+    vec4 scale;
+};
+layout(std430, binding = 16) readonly buffer EnvLobes { EnvLobe env_lobes[]; };
+#if LOBES_ENV_K > 0
+Lobe g_env_rl[LOBES_MAX_R * LOBES_ENV_K];
+int g_env_rl_count;
+#endif
 
 float lobes_lum(vec3 c) {
     return dot(c, vec3(0.2126, 0.7152, 0.0722));
@@ -418,11 +436,27 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         shadow += c.s * c.e * 1e-30;
         continue;
 #endif
+#if LOBES_ENV_K > 0
+        // env=lobes: the environment's products (R_r L_k) × c_i, as a light's.
+        if (env) {
+            for (int k = 0; k < g_env_rl_count; ++k) {
+                Lobe pr = lobes_mul(g_env_rl[k], c);
+                products += 1u;
+                vec3 v = lobes_hemisphere_integral(pr, n);
+                if (abs(lobes_lum(v)) < lp.threshold * abs(u_lum)) {
+                    pruned += 1u;
+                    continue;
+                }
+                shadow += v;
+            }
+            continue;
+        }
+#endif
         for (int k = 0; k < rl_count; ++k) {
             Lobe pr = lobes_mul(rl[k], c);
             products += 1u;
             vec3 v = lobes_hemisphere_integral(pr, n);
-            if (lobes_lum(v) < lp.threshold * u_lum) {
+            if (abs(lobes_lum(v)) < lp.threshold * abs(u_lum)) {
                 pruned += 1u;
                 continue;
             }
@@ -450,16 +484,12 @@ vec3 lobes_cone_mean(vec3 a[4], vec3 c) {
 // ---------------------------------------------------------------------------------------------
 // Environment: the same quad-tree mask about n over the widest square (half-angle 1.4 rad: the
 // directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked;
-// one level deeper than the lights' masks: its cells around n are wide),
-// against the cosine lobe; each shadow leaf's product integral is weighted by the prefiltered
-// environment at its axis. Returns the occluded irradiance S_env (RGB); `hidden`: the whole mask is
-// covered. Plane blockers are left out of the mask: `v_hs` is the product of their cosine-weighted
-// visibilities, exact for a half-space ((1 + n·m)/2), for a rectangle one minus the occlusion of the
-// energy-scaled cap lobe of its solid angle about its mean direction (× the cosine lobe).
-vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout uint products, inout uint pruned,
-                         inout uint leaves, inout uint overflow) {
-    hidden = false;
-    v_hs = 1.0;
+// one level deeper than the lights' masks: its cells around n are wide). Plane blockers are left out of
+// the mask: lobes_env_planes gives the product of their cosine-weighted visibilities, exact for a
+// half-space ((1 + n·m)/2), for a rectangle one minus the occlusion of the energy-scaled cap lobe of its
+// solid angle about its mean direction (× the cosine lobe).
+float lobes_env_planes(vec3 p, vec3 n) {
+    float v_hs = 1.0;
     for (uint i = 0u; i < plane_count; ++i) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, p)) continue;
@@ -481,20 +511,24 @@ vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout 
             v_hs *= 0.5 * (1.0 + clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
         }
     }
+    return v_hs;
+}
+
+// The environment mask's occlusion S_env = Σ_leaves w_i ∫ (rl c_i): with env=map rl is the cosine
+// lobe and each leaf's product integral is weighted by the prefiltered environment at its axis; with
+// env=lobes the products are the receiver's R_r L_k (g_env_rl). `u_lum` scales the pruning; `hidden`:
+// the whole mask is covered.
+vec3 lobes_env_mask(vec3 p, vec3 n, Lobe rl[LOBES_MAX_R], float u_lum, out bool hidden, inout uint products,
+                    inout uint pruned, inout uint leaves, inout uint overflow) {
+    hidden = false;
     if (lp.sphere_count == 0u) return vec3(0.0);
-    Lobe rl[LOBES_MAX_R];
-    rl[0].axis = n;
-    rl[0].e = 1.0;
-    rl[0].s = vec3(1.0);
-    rl[1] = rl[0];
-    float u = lobes_hemisphere_integral(rl[0], n).x;
     float tan_half = tan(LOBES_MASK_MAX_HALF_ANGLE);
     g_blocker_count = 0u;
     g_overflow = false;
 #if LOBES_PHASE < 2
-    return vec3(u * 1e-30);
+    return vec3(u_lum * 1e-30);
 #endif
-    if (lp.sphere_count > 0u) lobes_gather(p, n, n, tan_half, lp.depth + 1u);
+    lobes_gather(p, n, n, tan_half, lp.depth + 1u);
     if (g_overflow) overflow |= 1u;
 #if LOBES_PHASE < 3
     return vec3(float(g_blocker_count) * 1e-30);
@@ -502,7 +536,7 @@ vec3 lobes_env_occlusion(vec3 p, vec3 n, out bool hidden, out float v_hs, inout 
     g_p = p;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    return lobes_shadow(rl, 1, n, n, t, b, tan_half, u, false, true, lp.depth + 1u, products, pruned, leaves, hidden);
+    return lobes_shadow(rl, 1, n, n, t, b, tan_half, u_lum, false, true, lp.depth + 1u, products, pruned, leaves, hidden);
 }
 
 vec3 shade_point(ShadePoint sp) {
@@ -510,41 +544,81 @@ vec3 shade_point(ShadePoint sp) {
     vec3 p = sp.position;
     uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
 
-    // Environment: shared unshadowed terms times the lobe visibility estimate.
+    vec3 rho = sp.material.diffuse.rgb;
+    // Reflectance lobes f_r · cos (§5.1).
+    Lobe r[LOBES_MAX_R];
+    int r_count = 1;
+    r[0].axis = n;
+    r[0].e = 1.0;
+    r[0].s = rho / PI;
+    r[1] = r[0];
+    Lobe spec;
+    bool phong = lobes_specular_lobe(sp.material, n, sp.view, spec);
+    if (phong) {
+        Lobe cosine;
+        cosine.axis = n;
+        cosine.e = 1.0;
+        cosine.s = vec3(1.0);
+        r[1] = lobes_mul(spec, cosine);
+        if (light_count > 0u || LOBES_ENV_K > 0) products += 1u;
+        r_count = 2;
+    }
+    float v_hs = lobes_env_planes(p, n);
     bool env_hidden;
-    float v_hs;
-    vec3 s_env = lobes_env_occlusion(p, n, env_hidden, v_hs, products, pruned, leaves, overflow);
+    vec3 result;
+#if LOBES_ENV_K > 0
+    // env=lobes: each environment lobe as the paper takes a light: R × L_k, U_env = Σ ∫_{Ω+} R_r L_k,
+    // S_env through the normal's mask; the environment adds max(U_env − S_env, 0) (light=lobes) or the
+    // shared unshadowed terms × clamp(1 − S_env/U_env, 0, 1) (light=ratio), times the planes' v_hs.
+    vec3 u_env = vec3(0.0);
+    g_env_rl_count = 0;
+    for (uint k = 0u; k < min(lp.env_lobe_count, uint(LOBES_ENV_K)); ++k) {
+        Lobe l;
+        l.axis = env_lobes[k].axis_e.xyz;
+        l.e = env_lobes[k].axis_e.w;
+        l.s = env_lobes[k].scale.rgb;
+        for (int j = 0; j < r_count; ++j) {
+            Lobe rl = lobes_mul(r[j], l);
+            products += 1u;
+            u_env += lobes_hemisphere_integral(rl, n);
+            g_env_rl[g_env_rl_count] = rl;
+            g_env_rl_count += 1;
+        }
+    }
+    float u_env_lum = lobes_lum(u_env);
+    vec3 s_env = lobes_env_mask(p, n, r, u_env_lum, env_hidden, products, pruned, leaves, overflow);
+    float v_env = env_hidden ? 0.0 : (u_env_lum > 0.0 ? clamp(1.0 - lobes_lum(s_env) / u_env_lum, 0.0, 1.0) : 1.0) * v_hs;
+    if (lp.light_mode == 1u) {
+        result = v_env * rho / PI * irradiance_lookup(irradiance_map, n);
+        if (brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+    } else {
+        result = env_hidden ? vec3(0.0) : max(u_env - s_env, vec3(0.0)) * v_hs;
+        // Specular kinds that are not lobes: the shared prefiltered term × the lobe visibility.
+        if (!phong && brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+    }
+#else
+    // Environment: shared unshadowed terms times the lobe visibility estimate.
+    Lobe cos_rl[LOBES_MAX_R];
+    cos_rl[0].axis = n;
+    cos_rl[0].e = 1.0;
+    cos_rl[0].s = vec3(1.0);
+    cos_rl[1] = cos_rl[0];
+    float u_cos = lobes_hemisphere_integral(cos_rl[0], n).x;
+    vec3 s_env = lobes_env_mask(p, n, cos_rl, u_cos, env_hidden, products, pruned, leaves, overflow);
     vec3 e_free = irradiance_lookup(irradiance_map, n);
     vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_hs;
-    vec3 rho = sp.material.diffuse.rgb;
-    vec3 result = rho / PI * e_env;
+    result = rho / PI * e_env;
     if (brdf_has_specular(sp.material)) {
         // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).
         float den = lobes_lum(e_free);
         float v_env = den > 0.0 ? clamp(lobes_lum(e_env) / den, 0.0, 1.0) : 1.0;
         result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
     }
+#endif
 
     if (light_count > 0u) {
         SpecLobe sg[BRDF_MAX_LOBES];
         int sg_count = brdf_specular_lobes(sp.material, sp.normal, sp.view, sg);
-        // Reflectance lobes f_r · cos (§5.1).
-        Lobe r[LOBES_MAX_R];
-        int r_count = 1;
-        r[0].axis = n;
-        r[0].e = 1.0;
-        r[0].s = rho / PI;
-        Lobe spec;
-        bool phong = lobes_specular_lobe(sp.material, n, sp.view, spec);
-        if (phong) {
-            Lobe cosine;
-            cosine.axis = n;
-            cosine.e = 1.0;
-            cosine.s = vec3(1.0);
-            r[1] = lobes_mul(spec, cosine);
-            products += 1u;
-            r_count = 2;
-        }
         for (uint j = 0u; j < light_count; ++j) {
             vec3 axis;
             float sa, ca;

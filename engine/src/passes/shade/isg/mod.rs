@@ -30,8 +30,7 @@
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::tables::MathTables;
-use engine_math::prefilter::resample;
-use engine_math::sg::{fit_envmap_sgs, refine_envmap_sgs, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
+use engine_math::sg::{SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
 use engine_math::table_gen::MathTable;
 
 pub mod cpu;
@@ -56,9 +55,6 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     },
     create: |gpu, o| Ok(Box::new(Isg::new(gpu, IsgOptions::from_options(o))?)),
 };
-
-/// Resolution at which the environment is fitted with SGs (fit cost grows with texels × K).
-const FIT_SIZE: (usize, usize) = (128, 64);
 
 /// `IsgParams` in shaders-glsl/shade/isg/shade.glsl (std430).
 #[repr(C)]
@@ -231,17 +227,10 @@ impl Technique for Isg {
     }
 }
 
-/// The environment as K SGs: the greedy fit of a 128×64 resampling, refined by `refine` rounds of
-/// coordinate descent. Returns the lobes and the relative L2 error of the fit.
+/// The environment as K SGs: engine-math's [`engine_math::sg::fit_environment`] with the SG kernel (the
+/// greedy fit of a 128×64 resampling, refined by `refine` rounds). Returns the lobes and the fit's error.
 pub fn fit_environment(env: &engine_math::envmap::LatLongMap, k: usize, refine: usize) -> (Vec<SgRgb>, f64) {
-    let small = resample(env, FIT_SIZE.0, FIT_SIZE.1);
-    let (fits, errors) = fit_envmap_sgs(&small, k);
-    let greedy = fits.last().cloned().unwrap_or_default();
-    let error = errors.last().copied().unwrap_or(1.0);
-    if refine == 0 || greedy.is_empty() {
-        return (greedy, error);
-    }
-    refine_envmap_sgs(&small, &greedy, refine)
+    engine_math::sg::fit_environment(env, k, refine, engine_math::sg::EnvKernel::Sg)
 }
 
 /// The shared gather's node-size threshold (radians): `threshold` patch widths of the finest grid a

@@ -261,15 +261,12 @@ impl Twin {
         RgbLobe { axis: n, e: 1.0, s: [1.0; 3] }
     }
 
-    /// The environment's visibility under a constant environment (where the shader's prefiltered
-    /// weights are that constant): 1 − S/U of the cosine lobe through the mask about n (half-angle
-    /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
-    /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
-    /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
-    pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &TwinBvh, planes: &[BlockerPlane]) -> f64 {
-        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| pl.blocks_receiver(p)).collect();
+    /// The planes' part of the environment's visibility (the shader's `lobes_env_planes`): the product
+    /// over the plane blockers in front of `p` of their cosine-weighted visibility, exact for a
+    /// half-space, for a rectangle one minus the occlusion of its equal-solid-angle cap lobe.
+    pub fn env_planes(&self, p: DVec3, n: DVec3, planes: &[BlockerPlane]) -> f64 {
         let mut v_hs = 1.0;
-        for pl in &active {
+        for pl in planes.iter().filter(|pl| pl.blocks_receiver(p)) {
             match pl.corners() {
                 None => v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0)),
                 Some(k) => {
@@ -284,30 +281,61 @@ impl Twin {
                 }
             }
         }
+        v_hs
+    }
+
+    /// The environment's visibility under a constant environment (where the shader's prefiltered
+    /// weights are that constant): 1 − S/U of the cosine lobe through the mask about n (half-angle
+    /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
+    /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
+    /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
+    pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &TwinBvh, planes: &[BlockerPlane]) -> f64 {
+        let v_hs = self.env_planes(p, n, planes);
         if spheres.is_empty() {
             return v_hs;
         }
         let rl = [Self::cosine(n)];
         let u = self.hemisphere_integral(&rl[0], n)[0];
         let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
-        self.mask(
-            &mut out,
-            p,
-            n,
-            n,
-            super::MASK_MAX_HALF_ANGLE.tan(),
-            &rl,
-            spheres,
-            &[],
-            false,
-            false,
-            self.options.depth + 1,
-        );
+        self.env_mask(&mut out, p, n, &rl, spheres);
         if out.hidden {
             0.0
         } else {
             (1.0 - out.s[0] / u).max(0.0) * v_hs
         }
+    }
+
+    /// The environment's mask about n (half-angle [`super::MASK_MAX_HALF_ANGLE`], one level deeper
+    /// than the lights', no planes, unit leaf weights) against the lobes `rl`.
+    fn env_mask(&self, out: &mut LightTerms, p: DVec3, n: DVec3, rl: &[RgbLobe], spheres: &TwinBvh) {
+        let tan_half = super::MASK_MAX_HALF_ANGLE.tan();
+        self.mask(out, p, n, n, tan_half, rl, spheres, &[], false, false, self.options.depth + 1);
+    }
+
+    /// `env=lobes` at a receiver: the environment as the cosine lobes `env` (scale · max(axis·v, 0)^e),
+    /// each taken as the shader takes it: U = Σ_k Σ_r ∫ R_r L_k (k outer, r inner, the shader's order),
+    /// S through the environment's mask about n. Returns the terms and the planes' visibility v_hs:
+    /// `light=lobes` adds max(U − S, 0) · v_hs ([`LightTerms::radiance`] × v_hs; 0 when hidden).
+    pub fn env_lobe_terms(
+        &self,
+        r: &TwinReceiver,
+        env: &[RgbLobe],
+        spheres: &TwinBvh,
+        planes: &[BlockerPlane],
+    ) -> (LightTerms, f64) {
+        let reflectance = self.reflectance(r);
+        let rl: Vec<RgbLobe> = env.iter().flat_map(|l| reflectance.iter().map(|c| self.mul(c, l))).collect();
+        let mut out = LightTerms { outside: true, ..Default::default() };
+        out.products = rl.len() + usize::from(r.specular.is_some());
+        for c in &rl {
+            let v = self.hemisphere_integral(c, r.n);
+            (0..3).for_each(|k| out.u[k] += v[k]);
+        }
+        let v_hs = self.env_planes(r.p, r.n, planes);
+        if !spheres.is_empty() {
+            self.env_mask(&mut out, r.p, r.n, &rl, spheres);
+        }
+        (out, v_hs)
     }
 
     /// The reflectance lobes f_r · cos at the receiver (Lambert; the specular lobe × cosine).
@@ -528,7 +556,7 @@ impl Twin {
             for c in rl {
                 let v = self.hemisphere_integral(&self.mul(c, &leaf), n);
                 out.products += 1;
-                if lum(v) < o.threshold * u_lum {
+                if lum(v).abs() < o.threshold * u_lum.abs() {
                     out.pruned += 1;
                     continue;
                 }

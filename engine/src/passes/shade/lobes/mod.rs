@@ -27,6 +27,7 @@ use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, Techniq
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::options::{Kind, OptionSpec, Options};
 use crate::tables::MathTables;
+use engine_math::sg::{EnvKernel, SgRgb};
 use engine_math::table_gen::MathTable;
 
 pub mod cpu;
@@ -38,6 +39,8 @@ pub const MAX_BLOCKERS: usize = 64;
 pub const MAX_DEPTH: u32 = 6;
 /// The mask's half-angle never exceeds this (radians; LOBES_MASK_MAX_HALF_ANGLE).
 pub const MASK_MAX_HALF_ANGLE: f64 = 1.4;
+/// Most environment lobes of `env=lobes` (option `K`): the shader keeps 2 K products R × L_k per receiver.
+pub const MAX_ENV_LOBES: usize = 16;
 
 pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
@@ -125,6 +128,27 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "when a mask's cut still holds more than 64 blockers, retry it with `take_whole` doubled up to this many times before dropping (and counting) the rest",
     },
     OptionSpec {
+        key: "env",
+        aliases: &[],
+        kind: Kind::Choice(&["map", "lobes"]),
+        default: Some("map"),
+        help: "environment: map (the shared irradiance and prefiltered terms × the cosine lobe's visibility through the normal's mask, leaves weighted by the prefiltered map; ours) or lobes (K fitted cosine lobes, each taken through R × L_k and the normal's mask as the paper takes a light)",
+    },
+    OptionSpec {
+        key: "K",
+        aliases: &["k"],
+        kind: Kind::Int { min: 1, max: MAX_ENV_LOBES as i64 },
+        default: Some("10"),
+        help: "environment cosine lobes (env=lobes; isg's greedy least-squares fit with the cosine-lobe kernel, refined; 10 as isg's K)",
+    },
+    OptionSpec {
+        key: "refine",
+        aliases: &[],
+        kind: Kind::Int { min: 0, max: 100 },
+        default: Some("6"),
+        help: "coordinate-descent rounds refining the greedy environment lobe fit (env=lobes; 0: greedy only)",
+    },
+    OptionSpec {
         key: "phase",
         aliases: &[],
         kind: Kind::Choice(&PHASES),
@@ -188,6 +212,10 @@ pub struct LobesOptions {
     pub take_whole: f64,
     /// Retries of an overflowing cut with `take_whole` doubled.
     pub coarsen: u32,
+    /// `env=lobes`: the environment as this many fitted cosine lobes (0: `env=map`).
+    pub env_lobes: usize,
+    /// Refinement rounds of the environment lobe fit.
+    pub refine: usize,
     /// `phase`: the last phase each receiver runs, 1..=5 ([`PHASES`]; 5 = all, the image).
     pub phase: u32,
     /// Factor of the light masks' leaf weights by the leaf's depth (index 0..=6; `weights=fitted`: the
@@ -212,6 +240,8 @@ impl Default for LobesOptions {
             sharpen: 1.0,
             take_whole: 1.0,
             coarsen: 4,
+            env_lobes: 0,
+            refine: 6,
             phase: PHASES.len() as u32,
             light_weights: [1.0; WEIGHT_DEPTHS],
         }
@@ -241,6 +271,8 @@ impl LobesOptions {
             sharpen: o.float("sharpen"),
             take_whole: o.float("take_whole"),
             coarsen: o.int("coarsen") as u32,
+            env_lobes: if o.choice("env") == "lobes" { o.int("K") as usize } else { 0 },
+            refine: o.int("refine") as usize,
             phase: PHASES.iter().position(|&p| p == o.choice("phase")).map_or(PHASES.len(), |i| i + 1) as u32,
             light_weights,
         })
@@ -268,6 +300,48 @@ pub struct GpuLobesParams {
     pub coarsen: u32,
     /// Per-depth factors of the light masks' leaf weights (7 used).
     pub light_weights: [f32; 8],
+    /// Environment lobes in `EnvLobes` (`env=lobes`; 0 with `env=map`).
+    pub env_lobe_count: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+/// `EnvLobe` in shaders-glsl/shade/lobes/shade.glsl (std430): one environment cosine lobe
+/// `scale · max(axis·v, 0)^e`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuEnvLobe {
+    /// Unit axis (xyz) and exponent e (w).
+    pub axis_e: [f32; 4],
+    /// RGB scale (w unused).
+    pub scale: [f32; 4],
+}
+
+impl GpuEnvLobe {
+    pub fn from_fit(l: &SgRgb) -> Self {
+        let a = l.axis.map(|x| x as f32);
+        let m = l.mu.map(|x| x as f32);
+        Self { axis_e: [a[0], a[1], a[2], l.lambda as f32], scale: [m[0], m[1], m[2], 0.0] }
+    }
+}
+
+/// The environment as `k` cosine lobes: engine-math's fit ([`engine_math::sg::fit_environment`] with
+/// the cosine-lobe kernel, the fit `isg` makes with SGs). Returns the lobes and the relative L2 error.
+pub fn fit_environment(env: &engine_math::envmap::LatLongMap, k: usize, refine: usize) -> (Vec<SgRgb>, f64) {
+    engine_math::sg::fit_environment(env, k, refine, EnvKernel::CosineLobe)
+}
+
+/// A cheap fingerprint of an environment map (its size and every texel's bits), to refit only when
+/// the environment changed.
+fn environment_key(env: &engine_math::envmap::LatLongMap) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325 ^ ((env.width as u64) << 32 | env.height as u64);
+    for t in &env.texels {
+        for c in t {
+            h = (h ^ c.to_bits() as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    h
 }
 
 /// The parameter block for `o`.
@@ -286,6 +360,10 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         take_whole: o.take_whole as f32,
         coarsen: o.coarsen,
         light_weights: std::array::from_fn(|d| o.light_weights.get(d).map_or(1.0, |&w| w as f32)),
+        env_lobe_count: o.env_lobes.min(MAX_ENV_LOBES) as u32,
+        pad0: 0,
+        pad1: 0,
+        pad2: 0,
     }
 }
 
@@ -350,6 +428,17 @@ pub const TABLES: [MathTable; 3] = [MathTable::LobeProduct, MathTable::LobeHemis
 struct Prepared {
     params: Buffer,
     tables: MathTables,
+    /// The environment lobes (one zero lobe with `env=map`: a storage buffer may not be empty).
+    env_lobes: Buffer,
+}
+
+/// The environment fit of `env=lobes`, kept while the environment does not change.
+#[derive(Clone, Debug)]
+pub struct EnvFit {
+    key: u64,
+    pub lobes: Vec<SgRgb>,
+    /// Relative L2 error of the fit over the 128×64 resampled map.
+    pub error: f64,
 }
 
 pub struct Lobes {
@@ -357,22 +446,35 @@ pub struct Lobes {
     pub options: LobesOptions,
     prepared: Option<Prepared>,
     stats: Option<Buffer>,
+    /// `env=lobes`: the last environment fit.
+    pub env_fit: Option<EnvFit>,
+    /// The fit's line is reported once per fit.
+    env_fit_reported: bool,
 }
 
 impl Lobes {
     pub fn new(gpu: &Gpu, options: LobesOptions) -> Result<Self> {
         let phase = options.phase.to_string();
-        let pipelines = if options.phase < PHASES.len() as u32 {
-            TargetPipelines::with_defines(gpu, "lobes", &[("LOBES_PHASE", phase.as_str())])?
-        } else {
+        let env_k = options.env_lobes.min(MAX_ENV_LOBES).to_string();
+        let mut defines: Vec<(&str, &str)> = Vec::new();
+        if options.phase < PHASES.len() as u32 {
+            defines.push(("LOBES_PHASE", phase.as_str()));
+        }
+        if options.env_lobes > 0 {
+            defines.push(("LOBES_ENV_K", env_k.as_str()));
+        }
+        let pipelines = if defines.is_empty() {
             TargetPipelines::new(gpu, "lobes")?
+        } else {
+            TargetPipelines::with_defines(gpu, "lobes", &defines)?
         };
-        Ok(Self { pipelines, options, prepared: None, stats: None })
+        Ok(Self { pipelines, options, prepared: None, stats: None, env_fit: None, env_fit_reported: false })
     }
 
     fn release(&mut self, gpu: &Gpu) {
         if let Some(p) = self.prepared.take() {
             gpu.destroy_buffer(p.params);
+            gpu.destroy_buffer(p.env_lobes);
             p.tables.destroy(gpu);
         }
     }
@@ -416,20 +518,49 @@ impl Technique for Lobes {
     fn report(&mut self, gpu: &Gpu) -> Result<super::TechniqueReport> {
         let s = self.stats(gpu)?;
         self.reset_stats(gpu)?;
-        Ok(super::TechniqueReport {
-            warnings: overflow_warning(&s).into_iter().collect(),
-            counts: work_line(&s).into_iter().collect(),
-        })
+        let mut counts: Vec<String> = work_line(&s).into_iter().collect();
+        if let Some(f) = self.env_fit.as_ref().filter(|_| !self.env_fit_reported) {
+            counts.push(format!(
+                "lobes: the environment as {} cosine lobes (refined {} rounds): relative L2 fit error {:.1} %",
+                f.lobes.len(),
+                self.options.refine,
+                100.0 * f.error
+            ));
+            self.env_fit_reported = true;
+        }
+        Ok(super::TechniqueReport { warnings: overflow_warning(&s).into_iter().collect(), counts })
     }
 
     fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()> {
         self.release(gpu);
         let tables = MathTables::load(gpu, &crate::tables::default_dir(), &TABLES)
             .map_err(|e| GpuError::Other(e.to_string()))?;
-        let p = params(&self.options, inputs.blockers()?.sphere_count);
+        let mut gpu_lobes = vec![GpuEnvLobe::default()];
+        if self.options.env_lobes > 0 {
+            let env = &inputs.environment.cpu;
+            let key = environment_key(env);
+            if self.env_fit.as_ref().is_none_or(|f| f.key != key) {
+                let (lobes, error) = fit_environment(env, self.options.env_lobes, self.options.refine);
+                self.env_fit = Some(EnvFit { key, lobes, error });
+                self.env_fit_reported = false;
+            }
+            if let Some(f) = self.env_fit.as_ref().filter(|f| !f.lobes.is_empty()) {
+                gpu_lobes = f.lobes.iter().map(GpuEnvLobe::from_fit).collect();
+            }
+        }
+        let mut p = params(&self.options, inputs.blockers()?.sphere_count);
+        p.env_lobe_count = if self.options.env_lobes > 0 { gpu_lobes.len().min(MAX_ENV_LOBES) as u32 } else { 0 };
         let params = match gpu.upload_buffer("lobes-params", BufferDesc::gpu_only(0), std::slice::from_ref(&p)) {
             Ok(b) => b,
             Err(e) => {
+                tables.destroy(gpu);
+                return Err(e);
+            }
+        };
+        let env_lobes = match gpu.upload_buffer("lobes-env-lobes", BufferDesc::gpu_only(0), &gpu_lobes) {
+            Ok(b) => b,
+            Err(e) => {
+                gpu.destroy_buffer(params);
                 tables.destroy(gpu);
                 return Err(e);
             }
@@ -439,12 +570,13 @@ impl Technique for Lobes {
                 Ok(b) => self.stats = Some(b),
                 Err(e) => {
                     gpu.destroy_buffer(params);
+                    gpu.destroy_buffer(env_lobes);
                     tables.destroy(gpu);
                     return Err(e);
                 }
             }
         }
-        self.prepared = Some(Prepared { params, tables });
+        self.prepared = Some(Prepared { params, tables, env_lobes });
         Ok(())
     }
 
@@ -474,6 +606,7 @@ impl Technique for Lobes {
                 Binding::buffer("BvhNodes", &blockers.bvh_nodes),
                 Binding::buffer("LobesParamsBuf", &p.params),
                 Binding::buffer("LobesStats", stats),
+                Binding::buffer("EnvLobes", &p.env_lobes),
                 Binding::buffer("BlockerPlanes", &blockers.planes),
                 Binding::buffer("Lights", &inputs.lights()?.buffer),
             ],
