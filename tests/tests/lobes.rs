@@ -304,7 +304,7 @@ fn one_light_without_blockers_is_the_analytic_lobe_integral() {
             let l = TwinLight { center: DVec3::new(0.0, dist, 0.0), radius, radiance: [1.0; 3] };
             let t = twin.light_terms(&receiver(n), &l, &TwinBvh::default(), &[]);
             let alpha = (radius / dist).asin();
-            let lobe = twin.cap_lobe(DVec3::Y, alpha, [1.0; 3], energy, 1.0);
+            let lobe = twin.cap_lobe(DVec3::Y, alpha, [1.0; 3], energy, twin.options.sharpen);
             let want = lobe.s[0] / PI * clamped_cosine_integral(lobe.e, n.y);
             let e = (t.u[0] - want).abs() / want;
             worst = worst.max(e);
@@ -332,8 +332,9 @@ fn hidden_and_half_covered_lights() {
         assert!(hidden.hidden && left == 0.0, "{left}");
         // A blocker of 1.25 α covers the light but not the whole mask: the leaves hide what lies under
         // it, but the L2 cap lobe of the light (e_cap α² ≈ 1.92) keeps exp(−0.96 · 1.25²) ≈ 22 % of its
-        // integral outside 1.25 α: measured 20 % (conservative) and 27 % (aggressive) left. This is the
-        // cap lobe's shape error (DESIGN §3), not the mask's.
+        // integral outside 1.25 α: measured 20 % (conservative) and 27 % (aggressive) left at sharpen = 1;
+        // 6.0 % and 7.6 % (half) at the default sharpen = 2. This is the cap lobe's shape error (DESIGN §3),
+        // not the mask's.
         let r = 2.0 * (1.25 * (0.4f64 / 4.0).asin()).sin();
         let mostly = twin.light_terms(&receiver(n), &l, &bvh(&[Sphere::new(DVec3::new(0.0, 2.0, 0.0), r)]), &[]);
         let left = mostly.radiance()[0] / mostly.u[0];
@@ -345,7 +346,11 @@ fn hidden_and_half_covered_lights() {
         let half = twin.light_terms(&receiver(n), &l, &TwinBvh::default(), &[plate]);
         let v = half.visibility();
         eprintln!("half-covered light ({leaves:?}): visibility {v:.4}");
-        assert!((v - 0.5).abs() < 0.05, "{v}");
+        // The partial cells along the edge (at the maximal depth) count half, whole or not at all: at the
+        // default sharpen = 2 the light lobe is narrow enough that they weigh (measured 0.469 half, 0.433
+        // conservative, 0.505 aggressive).
+        let bound = if leaves == Leaves::Half { 0.05 } else { 0.1 };
+        assert!((v - 0.5).abs() < bound, "{leaves:?}: {v}");
     }
 }
 
@@ -502,7 +507,10 @@ fn fitted_weights_have_not_drifted_and_the_gpu_applies_them() {
     for d in 0..w.len() {
         assert!((w[d] - stored[d]).abs() < 1e-9, "depth {d}: stored {} vs fitted today {}", stored[d], w[d]);
     }
-    assert!(fitted < 0.8 * uniform, "the fit should lower the calibration error: {fitted} vs {uniform}");
+    // At the default sharpen = 2 the unit weights are already close (measured 0.70 % → 0.62 %; at sharpen = 1
+    // it was 2.65 % → 1.59 %): the fit must still lower the error by a clear margin, and unit weights stay good.
+    assert!(fitted < 0.95 * uniform, "the fit should lower the calibration error: {fitted} vs {uniform}");
+    assert!(uniform < 0.01, "unit weights at the defaults: {uniform}");
     let gpu = engine_tests::gpu();
     let key = light([-0.6, 2.2, -0.5], 0.3, [12.0, 9.0, 6.0]);
     let o = LobesOptions { light_weights: stored, ..Default::default() };

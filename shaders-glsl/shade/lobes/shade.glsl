@@ -357,6 +357,18 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes) {
     return partial ? 1 : 0;
 }
 
+// One visibility product: v = ∫_{Ω+} (rl c) over the hemisphere of n; false (pruned, counted) when its
+// luminance is below threshold · |U|.
+bool lobes_leaf_product(Lobe rl, Lobe c, vec3 n, float u_lum, inout uint products, inout uint pruned, out vec3 v) {
+    v = lobes_hemisphere_integral(lobes_mul(rl, c), n);
+    products += 1u;
+    if (abs(lobes_lum(v)) < lp.threshold * abs(u_lum)) {
+        pruned += 1u;
+        return false;
+    }
+    return true;
+}
+
 // S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half).
 vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t, vec3 b, float tan_half, float u_lum,
                   bool planes, bool env, uint depth_req, inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
@@ -440,26 +452,15 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         // env=lobes: the environment's products (R_r L_k) × c_i, as a light's.
         if (env) {
             for (int k = 0; k < g_env_rl_count; ++k) {
-                Lobe pr = lobes_mul(g_env_rl[k], c);
-                products += 1u;
-                vec3 v = lobes_hemisphere_integral(pr, n);
-                if (abs(lobes_lum(v)) < lp.threshold * abs(u_lum)) {
-                    pruned += 1u;
-                    continue;
-                }
-                shadow += v;
+                vec3 v;
+                if (lobes_leaf_product(g_env_rl[k], c, n, u_lum, products, pruned, v)) shadow += v;
             }
             continue;
         }
 #endif
         for (int k = 0; k < rl_count; ++k) {
-            Lobe pr = lobes_mul(rl[k], c);
-            products += 1u;
-            vec3 v = lobes_hemisphere_integral(pr, n);
-            if (abs(lobes_lum(v)) < lp.threshold * abs(u_lum)) {
-                pruned += 1u;
-                continue;
-            }
+            vec3 v;
+            if (!lobes_leaf_product(rl[k], c, n, u_lum, products, pruned, v)) continue;
             // The environment: each leaf's occluded light read from the prefiltered environment
             // at the leaf's axis, filtered like the leaf lobe (cos^e ≈ an SG of sharpness e).
             if (env) v *= prefiltered_lookup(prefiltered_env, c.axis, max(c.e, 1.0));
