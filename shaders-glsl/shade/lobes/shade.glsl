@@ -486,14 +486,24 @@ vec3 lobes_cone_mean(vec3 a[4], vec3 c) {
 // Environment: the same quad-tree mask about n over the widest square (half-angle 1.4 rad: the
 // directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked;
 // one level deeper than the lights' masks: its cells around n are wide). Plane blockers are left out of
-// the mask: lobes_env_planes gives the product of their cosine-weighted visibilities, exact for a
-// half-space ((1 + n·m)/2), for a rectangle one minus the occlusion of the energy-scaled cap lobe of its
-// solid angle about its mean direction (× the cosine lobe).
-float lobes_env_planes(vec3 p, vec3 n) {
+// the mask: each blocks a cosine-weighted solid angle o of the hemisphere of n, exactly π(1 − n·m)/2 for
+// a half-space, for a rectangle the occlusion of the energy-scaled cap lobe of its solid angle about its
+// mean direction (× the cosine lobe). lobes_env_planes returns Π (1 − o/π), their visibility under a
+// constant environment (env=lobes uses it), and in `weighted` Π (1 − o L̄/E(n)) per channel, each plane's
+// o weighted by the prefiltered environment L̄ about the directions it blocks (the rectangle's mean
+// direction at its cap lobe's sharpness; for a half-space the direction normalize(n − m) between n and
+// the plane's inside, at λ = 2π/∠(n, m): a footprint of half the blocked lune's solid angle 2∠(n, m), so
+// that little of the unblocked side leaks in): a ground under a bright sky
+// hides the dark lower half, not a share of the whole hemisphere's light (env=map).
+float lobes_env_planes(vec3 p, vec3 n, vec3 e_free, out vec3 weighted) {
     float v_hs = 1.0;
+    weighted = vec3(1.0);
     for (uint i = 0u; i < plane_count; ++i) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, p)) continue;
+        float o;
+        vec3 dir;
+        float lambda;
         if (plane_is_rectangle(pl)) {
             // The cap of the plate's solid angle Ω (1 − cos α = Ω/2π) about its cone's mean
             // direction, as its energy-scaled cap lobe × the cosine lobe.
@@ -502,15 +512,24 @@ float lobes_env_planes(vec3 p, vec3 n) {
                                 c + pl.half_u.xyz + pl.half_v.xyz, c - pl.half_u.xyz + pl.half_v.xyz);
             float omega = lobes_triangle_solid_angle(a[0], a[1], a[2]) + lobes_triangle_solid_angle(a[0], a[2], a[3]);
             float alpha = acos(clamp(1.0 - omega / (2.0 * PI), -1.0, 1.0));
-            Lobe cap = lobes_cap_lobe(lobes_cone_mean(a, c), alpha, vec3(1.0), true, 1.0);
+            dir = lobes_cone_mean(a, c);
+            Lobe cap = lobes_cap_lobe(dir, alpha, vec3(1.0), true, 1.0);
             Lobe cosine;
             cosine.axis = n;
             cosine.e = 1.0;
             cosine.s = vec3(1.0);
-            v_hs *= clamp(1.0 - lobes_hemisphere_integral(lobes_mul(cap, cosine), n).x / PI, 0.0, 1.0);
+            o = lobes_hemisphere_integral(lobes_mul(cap, cosine), n).x;
+            lambda = cap.e;
         } else {
-            v_hs *= 0.5 * (1.0 + clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
+            float nm = clamp(dot(n, pl.plane.xyz), -1.0, 1.0);
+            o = 0.5 * PI * (1.0 - nm);
+            vec3 d = n - pl.plane.xyz;
+            dir = dot(d, d) > 1e-12 ? normalize(d) : -pl.plane.xyz;
+            lambda = 2.0 * PI / max(acos(nm), 1e-3);
         }
+        v_hs *= clamp(1.0 - o / PI, 0.0, 1.0);
+        vec3 occluded = o * prefiltered_lookup(prefiltered_env, dir, max(lambda, 0.25));
+        weighted *= clamp(vec3(1.0) - occluded / max(e_free, vec3(1e-30)), 0.0, 1.0);
     }
     return v_hs;
 }
@@ -564,7 +583,9 @@ vec3 shade_point(ShadePoint sp) {
         if (light_count > 0u || LOBES_ENV_K > 0) products += 1u;
         r_count = 2;
     }
-    float v_hs = lobes_env_planes(p, n);
+    vec3 e_free = irradiance_lookup(irradiance_map, n);
+    vec3 v_planes;
+    float v_hs = lobes_env_planes(p, n, e_free, v_planes);
     bool env_hidden;
     vec3 result;
 #if LOBES_ENV_K > 0
@@ -590,7 +611,7 @@ vec3 shade_point(ShadePoint sp) {
     vec3 s_env = lobes_env_mask(p, n, r, u_env_lum, env_hidden, products, pruned, leaves, overflow);
     float v_env = env_hidden ? 0.0 : (u_env_lum > 0.0 ? clamp(1.0 - lobes_lum(s_env) / u_env_lum, 0.0, 1.0) : 1.0) * v_hs;
     if (lp.light_mode == 1u) {
-        result = v_env * rho / PI * irradiance_lookup(irradiance_map, n);
+        result = v_env * rho / PI * e_free;
         if (brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
     } else {
         result = env_hidden ? vec3(0.0) : max(u_env - s_env, vec3(0.0)) * v_hs;
@@ -606,8 +627,7 @@ vec3 shade_point(ShadePoint sp) {
     cos_rl[1] = cos_rl[0];
     float u_cos = lobes_hemisphere_integral(cos_rl[0], n).x;
     vec3 s_env = lobes_env_mask(p, n, cos_rl, u_cos, env_hidden, products, pruned, leaves, overflow);
-    vec3 e_free = irradiance_lookup(irradiance_map, n);
-    vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_hs;
+    vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_planes;
     result = rho / PI * e_env;
     if (brdf_has_specular(sp.material)) {
         // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).
