@@ -157,6 +157,13 @@ fn check(errs: &[f64], spec: &str, what: &str, p95_bound: f64, max_bound: f64) {
     assert!(p95 < p95_bound && max < max_bound, "{spec} ({what}): p95 {p95}, max {max}");
 }
 
+/// The glossy materials of the specular tests: an anisotropic Lafortune ground (e = 60) and a Blinn-Phong
+/// ball (s = 100, its Phong lobe e = s/4).
+fn make_glossy(s: &mut Scene) {
+    s.materials[0].apply_brdf_spec("lafortune:cx=-1,cy=-0.85,cz=1,e=60,ks=0.5,tangent=1/0/0").unwrap();
+    s.materials[1].apply_brdf_spec("blinn-phong:s=100,ks=0.4").unwrap();
+}
+
 fn light(center: [f32; 3], radius: f32, radiance: [f32; 3]) -> SphereLight {
     SphereLight { center: Vec3::from_array(center), radius, radiance: Vec3::from_array(radiance) }
 }
@@ -198,8 +205,7 @@ fn specular_lobes_match_the_f64_twin() {
         BlockerPlane::rectangle(DVec3::new(0.8, 1.0, 0.2), DVec3::new(0.25, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.2));
     for planes in [vec![], vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect]] {
         let mut s = scene(vec![key, fill], planes.clone());
-        s.materials[0].apply_brdf_spec("lafortune:cx=-1,cy=-0.85,cz=1,e=60,ks=0.5,tangent=1/0/0").unwrap();
-        s.materials[1].apply_brdf_spec("blinn-phong:s=100,ks=0.4").unwrap();
+        make_glossy(&mut s);
         let errs = compare(&gpu, &s, "lobes", &LobesOptions::default());
         check(
             &errs,
@@ -243,8 +249,7 @@ fn environment_lobes_match_the_f64_twin() {
     for planes in [vec![], vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect]] {
         let mut s = scene(vec![key], planes.clone());
         s.environment = env.clone();
-        s.materials[0].apply_brdf_spec("lafortune:cx=-1,cy=-0.85,cz=1,e=60,ks=0.5,tangent=1/0/0").unwrap();
-        s.materials[1].apply_brdf_spec("blinn-phong:s=100,ks=0.4").unwrap();
+        make_glossy(&mut s);
         let errs = compare_with_env(&gpu, &s, &spec, &o, Some(&lobes));
         check(
             &errs,
