@@ -324,6 +324,12 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, opts: &ExportOptions) -> Result
              (blinn-phong, cook-torrance and ashikhmin-shirley are exported exactly)"
         );
     }
+    if let Some(m) = scene.meshes.iter().find(|m| m.material_offsets.iter().any(|&o| o > 0)) {
+        anyhow::bail!(
+            "mesh '{}' has per-vertex materials (a material map): the Mitsuba export does not carry them",
+            m.name
+        );
+    }
     if opts.bsdf == ExportBsdf::Builtin {
         if let Some(i) = scene.materials.iter().position(|m| m.brdf != engine::scene::Brdf::BlinnPhong) {
             anyhow::bail!(

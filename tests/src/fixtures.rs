@@ -135,8 +135,13 @@ pub fn tilted_normal_box(env: LatLongMap, albedo: f32, tilt: f32, n: u32) -> Sce
             [Vec3::new(-1.0, lo, -1.0), Vec3::new(-1.0, lo, 1.0), Vec3::new(-1.0, hi, 1.0), Vec3::new(-1.0, hi, -1.0)],
         ),
     ];
-    let mut sides =
-        engine::scene::Mesh { name: "box-sides".into(), positions: vec![], normals: vec![], indices: vec![] };
+    let mut sides = engine::scene::Mesh {
+        name: "box-sides".into(),
+        positions: vec![],
+        normals: vec![],
+        indices: vec![],
+        material_offsets: Vec::new(),
+    };
     for (normal, quad) in faces {
         let base = sides.positions.len() as u32;
         sides.positions.extend_from_slice(&quad);
@@ -177,7 +182,8 @@ pub fn smooth_cube(env: LatLongMap, albedo: f32) -> Scene {
     // Corner index = x + 2y + 4z (bits); each face as two triangles, counter-clockwise from outside.
     let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
     let indices = quads.iter().flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]]).collect();
-    let cube = engine::scene::Mesh { name: "smooth-cube".into(), positions, normals, indices };
+    let cube =
+        engine::scene::Mesh { name: "smooth-cube".into(), positions, normals, indices, material_offsets: Vec::new() };
     Scene {
         meshes: vec![cube],
         materials: vec![Material::diffuse(Vec3::splat(albedo))],

@@ -102,3 +102,69 @@ fn brdf_switch_targets_the_glossy_materials() {
     }
     assert_eq!(cycle.step().unwrap(), chess.materials, "the cycle returns to the scene's own");
 }
+
+/// Per-vertex materials (a material map, `Mesh::material_offsets`): the plane's left half (x < 0) is Phong
+/// e = 10, its right half an off-specular Lafortune lobe e = 200, under a light and the environment. Every
+/// registered technique, per pixel and per vertex: each half renders as the plane built with its material
+/// alone (per pixel: exactly, the material is the triangle's first vertex's; per vertex: away from the
+/// boundary's cells), and the halves differ (so the test can fail).
+#[test]
+fn per_vertex_materials_reach_every_technique() {
+    use engine::passes::shade::TECHNIQUES;
+    use engine::scene::{Brdf, SphereLight};
+    let gpu = gpu();
+    let mut base = scene();
+    base.lights = vec![SphereLight { center: Vec3::new(0.3, 1.6, -1.4), radius: 0.3, radiance: Vec3::splat(8.0) }];
+    let phong = |mut m: Material, c: [f32; 3], e: f32, ks: f32| {
+        m.brdf = Brdf::Lafortune { c, e };
+        m.specular = Vec3::splat(ks);
+        m
+    };
+    let a = phong(base.materials[0], engine::scene::PHONG_C, 10.0, 0.3);
+    let b = phong(Material::diffuse(Vec3::splat(0.1)), [-1.0, -1.0, 0.7], 200.0, 0.8);
+    // Materials: 0 = a, 1 = b, 2 = the ball; the plane's vertices right of x = 0 take offset 1.
+    let ball = base.materials[1];
+    let mut mixed = base.clone();
+    mixed.materials = vec![a, b, ball];
+    mixed.instances[1].material = 2;
+    let plane = &mut mixed.meshes[0];
+    plane.material_offsets = plane.positions.iter().map(|p| u32::from(p.x > 1e-6)).collect();
+    let only = |material: usize| {
+        let mut s = mixed.clone();
+        s.meshes[0].material_offsets.clear();
+        s.instances[0].material = material;
+        s
+    };
+    let (all_a, all_b) = (only(0), only(1));
+    for entry in TECHNIQUES {
+        for per_vertex in [false, true] {
+            let what = format!("{}{}", entry.name, if per_vertex { " per vertex" } else { "" });
+            let s = RenderSettings { per_vertex, ..settings(entry.name) };
+            let (got, receivers) = engine_tests::render_with_gbuffer(&gpu, &mixed, s.clone());
+            assert_finite(&got, &what);
+            let (want_a, _) = render(&gpu, &all_a, s.clone());
+            let (want_b, _) = render(&gpu, &all_b, s);
+            // Per pixel: the G-buffer's material says which half; per vertex: the pixel's position, a cell
+            // (0.375) clear of the boundary.
+            let half = |i: usize, which: usize| match receivers[i] {
+                Some((p, _, m)) if m < 2 => {
+                    if per_vertex {
+                        (if which == 0 { p.x < -0.4 } else { p.x > 0.4 }) && p.y.abs() < 1e-3
+                    } else {
+                        m == which
+                    }
+                }
+                _ => false,
+            };
+            let count = |which| (0..receivers.len()).filter(|&i| half(i, which)).count();
+            assert!(count(0) > 40 && count(1) > 40, "{what}: halves in view ({}, {})", count(0), count(1));
+            let ea = relative_rmse(&got, &want_a, |i| half(i, 0));
+            let eb = relative_rmse(&got, &want_b, |i| half(i, 1));
+            let apart = relative_rmse(&want_a, &want_b, |i| half(i, 1));
+            eprintln!("{what}: left vs all-a {ea:.1e}, right vs all-b {eb:.1e}; the materials differ by {apart:.2}");
+            assert!(ea < 1e-5 && eb < 1e-5, "{what}: left {ea}, right {eb}");
+            assert!(apart > 0.05, "{what}: the two materials render alike ({apart})");
+        }
+    }
+    gpu.shutdown().expect("clean teardown");
+}

@@ -468,3 +468,64 @@ fn sparse_accessors_are_applied() {
     let g = load_gltf(&p, 0).unwrap();
     assert_eq!(g.meshes[0].positions, [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 3.0, 0.0)]);
 }
+
+/// `examples/lafortune_map.toml` (paper Fig. 14): the ground is 256 × 256 quads whose vertices take the level of
+/// the map below them (the five bands of the far half, left to right; the checkerboard of the near half), the
+/// palette blends Phong e = 8 into Lafortune e = 400 (geometric in e); and the map's bad inputs are errors
+/// naming the key.
+#[test]
+fn material_maps_blend_lafortune_per_vertex() {
+    use engine::scene::Brdf;
+    let assets = demos::assets_dir();
+    let example = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/lafortune_map.toml");
+    let u = user::scene_file(&example, None, &assets, &UserOptions::default()).unwrap();
+    let s = &u.scene;
+    let ground = s.instances.last().unwrap();
+    let mesh = &s.meshes[ground.mesh];
+    assert_eq!(mesh.positions.len(), 257 * 257);
+    assert_eq!(mesh.material_offsets.len(), mesh.positions.len());
+    assert_eq!(s.materials.len() - ground.material, 32, "the palette's 32 levels are the last materials");
+    let e = |k: usize| match s.materials[ground.material + k].brdf {
+        Brdf::Lafortune { e, .. } => e,
+        b => panic!("level {k}: {b:?}"),
+    };
+    assert!((e(0) - 8.0).abs() < 1e-4 && (e(31) - 400.0).abs() < 1e-2, "{} {}", e(0), e(31));
+    assert!((e(31) / e(30) - e(1) / e(0)).abs() < 1e-4, "geometric steps in e");
+    // The vertex in the middle of each band (far half: row 64 of 257, i.e. a quarter of the way in z).
+    let level = |i: usize, j: usize| mesh.material_offsets[j * 257 + i];
+    let bands: Vec<u32> = (0..5).map(|b| level(b * 256 / 5 + 25, 64)).collect();
+    assert_eq!(bands, vec![0, 8, 16, 23, 31], "t = 0, ¼, ½, ¾, 1 at 32 levels (t = 64/255 → level 8)");
+    // The near half: a checkerboard of 0 and 31, alternating tile by tile (tiles of 32 quads).
+    assert_eq!([level(16, 144), level(48, 144), level(16, 176)], [0, 31, 31]);
+
+    let d = dir();
+    let text = std::fs::read_to_string(&example).unwrap().replace("../assets/", &format!("{}/", assets.display()));
+    let cases: [(&str, String, &[&str]); 4] = [
+        ("map-levels.toml", text.replace("levels = 32", "levels = 1"), &["ground.material_map.levels", "1"]),
+        ("map-missing.toml", text.replace("lafortune_map.png", "absent.png"), &["material_map.file", "absent.png"]),
+        (
+            "map-blinn.toml",
+            text.replace("brdf = \"lafortune:cx=-1,cy=-1,cz=0.7,e=400\"", "brdf = \"blinn-phong:s=100\""),
+            &["ground.material_map", "Lafortune"],
+        ),
+        ("map-subdivisions.toml", text.replace("subdivisions = 256", "subdivisions = 0"), &["ground.subdivisions"]),
+    ];
+    for (name, text, what) in cases {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        let e = format!("{:#}", user::scene_file(&p, None, &assets, &UserOptions::default()).err().expect(name));
+        for w in what {
+            assert!(e.contains(w), "{name}: does not say '{w}': {e}");
+        }
+    }
+    // A model's map needs the model's material.
+    let p = d.join("map-model.toml");
+    let model_map = "[[model]]\nfile = \"{bunny}\"\nspheres = 0\nclip = \"none\"\n\
+        material_map = { file = \"{map}\", material = { brdf = \"phong:e=100\" } }\n";
+    let text = model_map
+        .replace("{bunny}", &assets.join("meshes/bunny.obj").display().to_string())
+        .replace("{map}", &assets.join("textures/lafortune_map.png").display().to_string());
+    std::fs::write(&p, text).unwrap();
+    let e = format!("{:#}", user::scene_file(&p, None, &assets, &UserOptions::default()).err().unwrap());
+    assert!(e.contains("model[0].material_map needs model[0].material"), "{e}");
+}

@@ -64,7 +64,7 @@ pub fn skinned_arm(rings: u32, segments: u32) -> (Mesh, Skin) {
             })
             .collect(),
     };
-    (Mesh { name: "arm".into(), positions, normals, indices }, skin)
+    (Mesh { name: "arm".into(), positions, normals, indices, material_offsets: Vec::new() }, skin)
 }
 
 /// Spheres along the arm's axis that bound the cylinder at rest: centres every `spacing`, radius

@@ -79,6 +79,7 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
             file,
             transform: placement,
             material: None,
+            map: None,
             blockers: Blockers::Fit(0),
             choice,
         });
@@ -90,6 +91,7 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
         file: "battle props".into(),
         transform: Mat4::IDENTITY,
         material: None,
+        map: None,
         blockers: Blockers::Fit(0),
         choice: ClipChoice::Still,
     });
@@ -99,7 +101,7 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
         environment_intensity: 0.6,
         lights: lights(),
         camera: Some(Camera { eye: Vec3::new(0.4, 2.3, 5.2), target: Vec3::new(0.0, 0.8, -0.3), fov_y_degrees: 45.0 }),
-        ground: Some(Material::diffuse(Vec3::new(0.45, 0.4, 0.33))),
+        ground: Some(user::Ground::plain(Material::diffuse(Vec3::new(0.45, 0.4, 0.33)))),
     };
     let mut u = user::assemble(composition, &UserOptions::default())?;
     for (mesh, s) in spheres.into_iter().enumerate() {

@@ -23,7 +23,7 @@ pub fn ground_plane(half: f32, n: u32) -> Mesh {
         }
     }
     let normals = vec![Vec3::Y; positions.len()];
-    Mesh { name: "ground".into(), positions, normals, indices }
+    Mesh { name: "ground".into(), positions, normals, indices, material_offsets: Vec::new() }
 }
 
 /// A UV sphere of radius 1 with `stacks` × `2·stacks` quads.
@@ -51,7 +51,7 @@ pub fn uv_sphere(stacks: u32) -> Mesh {
         }
     }
     let normals = positions.clone();
-    Mesh { name: "sphere".into(), positions, normals, indices }
+    Mesh { name: "sphere".into(), positions, normals, indices, material_offsets: Vec::new() }
 }
 
 /// A closed swept solid: a circle of radius `radii[i]` around `centers[i]`, in the plane spanned by
@@ -118,7 +118,7 @@ fn swept(centers: &[Vec3], radii: &[f32], frames: &[(Vec3, Vec3)], segments: u32
             }
         }
     }
-    Mesh { name: name.into(), positions, normals, indices }
+    Mesh { name: name.into(), positions, normals, indices, material_offsets: Vec::new() }
 }
 
 /// A closed solid of revolution about +Y: the profile `(y, r)` from the bottom up (r ≥ 0 the distance from
@@ -154,7 +154,13 @@ pub fn tube(spine: &[Vec3], radii: &[f32], segments: u32, name: &str) -> Mesh {
 
 /// One mesh holding all of `parts` (their index ranges offset; vertices not shared).
 pub fn merge(parts: &[Mesh], name: &str) -> Mesh {
-    let mut m = Mesh { name: name.into(), positions: Vec::new(), normals: Vec::new(), indices: Vec::new() };
+    let mut m = Mesh {
+        name: name.into(),
+        positions: Vec::new(),
+        normals: Vec::new(),
+        indices: Vec::new(),
+        material_offsets: Vec::new(),
+    };
     for p in parts {
         let base = m.positions.len() as u32;
         m.positions.extend_from_slice(&p.positions);

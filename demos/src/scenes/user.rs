@@ -12,6 +12,7 @@ use anyhow::{anyhow, bail, ensure, Context, Result};
 use engine::blockers::fit::FitSettings;
 use engine::blockers::Sphere;
 use engine::math::envmap::LatLongMap;
+use engine::scene::material_map::{MaterialMap, MaterialMapping};
 use engine::scene::{load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight};
 use glam::{EulerRot, Mat4, Quat, Vec3};
 use serde::Deserialize;
@@ -170,6 +171,8 @@ pub struct Placement {
     pub transform: Mat4,
     /// Replaces every material of the model.
     pub material: Option<Material>,
+    /// Blends `material` spatially across each mesh (needs `material`: the map's t = 0 end).
+    pub map: Option<MaterialMapping>,
     pub blockers: Blockers,
     pub choice: ClipChoice,
 }
@@ -190,9 +193,33 @@ pub struct Composition {
     pub environment_intensity: f32,
     pub lights: Vec<SphereLight>,
     pub camera: Option<Camera>,
-    /// `Some(material)`: a ground plane under the models' rest bounds.
-    pub ground: Option<Material>,
+    /// A ground plane under the models' rest bounds.
+    pub ground: Option<Ground>,
 }
+
+/// The ground plane of a [`Composition`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ground {
+    pub material: Material,
+    /// Quads per side (per-vertex shading and a material map resolve at this spacing).
+    pub subdivisions: u32,
+    /// Blends `material` spatially across the ground.
+    pub map: Option<MaterialMapping>,
+}
+
+impl Ground {
+    /// The default ground: 16 × 16 quads, one material.
+    pub fn plain(material: Material) -> Self {
+        Self { material, subdivisions: DEFAULT_GROUND_SUBDIVISIONS, map: None }
+    }
+}
+
+/// Quads per side of a scene's ground unless its file says otherwise.
+pub const DEFAULT_GROUND_SUBDIVISIONS: u32 = 16;
+/// The most quads per side of a ground (513² vertices).
+pub const MAX_GROUND_SUBDIVISIONS: u32 = 512;
+/// Palette levels of a material map unless its file says otherwise.
+pub const DEFAULT_MAP_LEVELS: u32 = 32;
 
 /// World-space bounds of `scene` at rest, skinned vertices posed by the rest bones.
 pub fn posed_bounds(scene: &Scene) -> (Vec3, Vec3) {
@@ -247,11 +274,20 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
         let m = p.model;
         let (mesh_base, material_base) = (scene.meshes.len(), scene.materials.len());
         let (instance_base, bone_base) = (scene.instances.len(), scene.blockers.bones.len());
-        match p.material {
-            Some(mat) => scene.materials.push(mat),
-            None => scene.materials.extend(&m.materials),
+        match (p.material, &p.map) {
+            (Some(mat), Some(map)) => scene
+                .materials
+                .extend(map.palette(&mat).map_err(|e| anyhow!("{}: material_map: {e}", p.file.display()))?),
+            (Some(mat), None) => scene.materials.push(mat),
+            (None, Some(_)) => {
+                bail!("{}: a material map needs the model's `material` (its t = 0 end)", p.file.display())
+            }
+            (None, None) => scene.materials.extend(&m.materials),
         }
-        for (k, mesh) in m.meshes.into_iter().enumerate() {
+        for (k, mut mesh) in m.meshes.into_iter().enumerate() {
+            if let Some(map) = &p.map {
+                map.apply(&mut mesh);
+            }
             scene.meshes.push(mesh);
             let skin = m.skins.get(k).cloned().flatten().map(|mut s| {
                 for j in s.joints.iter_mut().flatten() {
@@ -292,12 +328,20 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
     if let Some(ground) = c.ground {
         let center = 0.5 * (lo + hi);
         let half = (0.5 * (hi - lo).max_element()).max(0.5) * 2.0;
-        scene.meshes.push(shapes::ground_plane(half, 16));
-        scene.materials.push(ground);
+        let mut plane = shapes::ground_plane(half, ground.subdivisions.clamp(1, MAX_GROUND_SUBDIVISIONS));
+        let material = scene.materials.len();
+        match &ground.map {
+            Some(map) => {
+                scene.materials.extend(map.palette(&ground.material).map_err(|e| anyhow!("ground.material_map: {e}"))?);
+                map.apply(&mut plane);
+            }
+            None => scene.materials.push(ground.material),
+        }
+        scene.meshes.push(plane);
         scene.instances.push(Instance {
             mesh: scene.meshes.len() - 1,
             transform: Mat4::from_translation(Vec3::new(center.x, lo.y, center.z)),
-            material: scene.materials.len() - 1,
+            material,
         });
         scene.blockers.spheres.push(None);
         scene.blockers.skins.push(None);
@@ -368,6 +412,7 @@ pub fn single_model(path: &Path, env: Option<&Path>, assets: &Path, opts: &UserO
             file: path.to_path_buf(),
             transform: Mat4::IDENTITY,
             material: None,
+            map: None,
             blockers: Blockers::Fit(opts.spheres.unwrap_or(DEFAULT_SPHERES)),
             choice,
         }],
@@ -375,7 +420,7 @@ pub fn single_model(path: &Path, env: Option<&Path>, assets: &Path, opts: &UserO
         environment_intensity: 1.0,
         lights: Vec::new(),
         camera: None,
-        ground: Some(Material::diffuse(Vec3::splat(0.6))),
+        ground: Some(Ground::plain(Material::diffuse(Vec3::splat(0.6)))),
     };
     assemble(composition, opts)
 }
@@ -424,6 +469,21 @@ pub struct GroundSpec {
     #[serde(default = "yes")]
     pub visible: bool,
     pub material: Option<MaterialSpec>,
+    /// Quads per side (default 16, at most 512).
+    pub subdivisions: Option<u32>,
+    pub material_map: Option<MaterialMapSpec>,
+}
+
+/// `material_map = { file = "map.png", material = { ... }, levels = 32 }`: the PNG's red channel t blends the
+/// owner's `material` (t = 0) into `material` (t = 1; keys not given are the owner's), both Lafortune, per
+/// vertex in `levels` steps (`engine::scene::material_map`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialMapSpec {
+    /// An 8-bit PNG, relative to the scene file.
+    pub file: String,
+    pub material: MaterialSpec,
+    pub levels: Option<u32>,
 }
 
 fn yes() -> bool {
@@ -461,6 +521,8 @@ pub struct ModelSpec {
     #[serde(default = "unit_scale")]
     pub scale: [f32; 3],
     pub material: Option<MaterialSpec>,
+    /// Blends `material` spatially across each mesh (projected from above onto the mesh's x–z bounds).
+    pub material_map: Option<MaterialMapSpec>,
     /// Blocker spheres fitted per mesh (0: none).
     pub spheres: Option<usize>,
     /// Sphere files, one per mesh, relative to the scene file (instead of `spheres`).
@@ -473,9 +535,32 @@ fn unit_scale() -> [f32; 3] {
     [1.0; 3]
 }
 
+impl MaterialMapSpec {
+    /// The mapping of `owner`'s material `base` (`key` names the owner in messages).
+    fn build(&self, base: Option<&Material>, key: &str, rel: &dyn Fn(&str) -> PathBuf) -> Result<MaterialMapping> {
+        let base = base.ok_or_else(|| anyhow!("{key}.material_map needs {key}.material (its t = 0 end)"))?;
+        let b = self.material.build_from(*base, &format!("{key}.material_map.material"))?;
+        let levels = self.levels.unwrap_or(DEFAULT_MAP_LEVELS);
+        ensure!(
+            (2..=engine::scene::material_map::MAX_LEVELS).contains(&levels),
+            "{key}.material_map.levels: {levels} is not in 2..={}",
+            engine::scene::material_map::MAX_LEVELS
+        );
+        let map = MaterialMap::load(&rel(&self.file)).with_context(|| format!("{key}.material_map.file"))?;
+        let mapping = MaterialMapping { map, b, levels };
+        mapping.palette(base).map_err(|e| anyhow!("{key}.material_map: {e}"))?;
+        Ok(mapping)
+    }
+}
+
 impl MaterialSpec {
     fn build(&self, key: &str) -> Result<Material> {
-        let mut m = Material::diffuse(Vec3::splat(0.6));
+        self.build_from(Material::diffuse(Vec3::splat(0.6)), key)
+    }
+
+    /// `base` with the keys given replaced.
+    fn build_from(&self, base: Material, key: &str) -> Result<Material> {
+        let mut m = base;
         let color = |v: [f32; 3], what: &str| -> Result<Vec3> {
             ensure!(v.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c)), "{key}.{what}: {v:?} is not in [0, 1]");
             Ok(Vec3::from(v))
@@ -541,6 +626,7 @@ fn build_scene_file(
         let rotation = Quat::from_euler(EulerRot::ZYX, r.z.to_radians(), r.y.to_radians(), r.x.to_radians());
         let transform = Mat4::from_scale_rotation_translation(scale, rotation, finite(m.translation, "translation")?);
         let material = m.material.as_ref().map(|s| s.build(&format!("{key}.material"))).transpose()?;
+        let map = m.material_map.as_ref().map(|s| s.build(material.as_ref(), &key, &rel)).transpose()?;
         let blockers = match (&m.spheres, &m.sphere_files) {
             (Some(_), Some(_)) => bail!("{key}: give `spheres` or `sphere_files`, not both"),
             (_, Some(files)) => {
@@ -570,7 +656,7 @@ fn build_scene_file(
             (None, Some("none")) => ClipChoice::Still,
             (None, Some(name)) => ClipChoice::One(model.rig.clip_index(name).map_err(|e| anyhow!("{key}.clip: {e}"))?),
         };
-        models.push(Placement { model, file, transform, material, blockers, choice });
+        models.push(Placement { model, file, transform, material, map, blockers, choice });
     }
     ensure!(clip_found, "--clip {}: no model of the scene has that clip", opts.clip.as_deref().unwrap_or(""));
     let (mut environment, mut intensity) = (None, 1.0);
@@ -616,8 +702,20 @@ fn build_scene_file(
     };
     let ground = match &spec.ground {
         Some(g) if !g.visible => None,
-        Some(GroundSpec { material: Some(m), .. }) => Some(m.build("ground.material")?),
-        _ => Some(Material::diffuse(Vec3::splat(0.6))),
+        Some(g) => {
+            let material = match &g.material {
+                Some(m) => m.build("ground.material")?,
+                None => Material::diffuse(Vec3::splat(0.6)),
+            };
+            let subdivisions = g.subdivisions.unwrap_or(DEFAULT_GROUND_SUBDIVISIONS);
+            ensure!(
+                (1..=MAX_GROUND_SUBDIVISIONS).contains(&subdivisions),
+                "ground.subdivisions: {subdivisions} is not in 1..={MAX_GROUND_SUBDIVISIONS}"
+            );
+            let map = g.material_map.as_ref().map(|s| s.build(Some(&material), "ground", &rel)).transpose()?;
+            Some(Ground { material, subdivisions, map })
+        }
+        None => Some(Ground::plain(Material::diffuse(Vec3::splat(0.6)))),
     };
     let composition = Composition { models, environment, environment_intensity: intensity, lights, camera, ground };
     assemble(composition, opts)

@@ -113,13 +113,29 @@ impl GpuScene {
             if inst.material >= scene.materials.len() {
                 return Err(GpuError::Other(format!("instance {i}: no material {}", inst.material)));
             }
+            let offsets = &mesh.material_offsets;
+            if !offsets.is_empty() && offsets.len() != mesh.positions.len() {
+                return Err(GpuError::Other(format!(
+                    "mesh '{}': {} material offsets for {} vertices",
+                    mesh.name,
+                    offsets.len(),
+                    mesh.positions.len()
+                )));
+            }
+            let top = inst.material as u64 + offsets.iter().copied().max().unwrap_or(0) as u64;
+            if top >= scene.materials.len() as u64 {
+                return Err(GpuError::Other(format!(
+                    "instance {i}: its mesh's material offsets reach material {top} of {}",
+                    scene.materials.len()
+                )));
+            }
             let base = vertices.len() as u32;
-            for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
+            for (v, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
                 vertices.push(GpuVertex {
                     position: p.to_array(),
                     instance: i as f32,
                     normal: n.to_array(),
-                    material: inst.material as f32,
+                    material: (inst.material as u32 + mesh.material_offset(v)) as f32,
                 });
             }
             indices.extend(mesh.indices.iter().map(|&k| base + k));

@@ -204,7 +204,7 @@ pub fn grid_mesh(columns: u32, rows: u32, half_x: f32, half_z: f32) -> super::Me
         }
     }
     let normals = vec![Vec3::Y; positions.len()];
-    super::Mesh { name: "cloth".into(), positions, normals, indices }
+    super::Mesh { name: "cloth".into(), positions, normals, indices, material_offsets: Vec::new() }
 }
 
 /// SplitMix64 (Steele et al. 2014): the seeded jitter's hash.

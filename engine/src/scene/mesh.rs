@@ -16,6 +16,11 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub indices: Vec<u32>,
+    /// Per-vertex material offsets (empty: 0 everywhere): vertex v of an instance is shaded with material
+    /// `instance.material + material_offsets[v]`, so one mesh can carry spatially varying parameters (a
+    /// material map, `engine::scene::material_map`). Per-pixel shading takes the offset of a triangle's first
+    /// vertex (flat, like the material index); per-vertex shading takes each vertex's own.
+    pub material_offsets: Vec<u32>,
 }
 
 impl Mesh {
@@ -73,11 +78,16 @@ impl Mesh {
             }
             None => compute_normals(&positions, &kept),
         };
-        Ok(Self { name: name.to_string(), positions, normals, indices: kept })
+        Ok(Self { name: name.to_string(), positions, normals, indices: kept, material_offsets: Vec::new() })
     }
 
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
+    }
+
+    /// The material offset of vertex `v` ([`Mesh::material_offsets`]).
+    pub fn material_offset(&self, v: usize) -> u32 {
+        self.material_offsets.get(v).copied().unwrap_or(0)
     }
 }
 

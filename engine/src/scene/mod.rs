@@ -4,6 +4,7 @@ pub mod blockers;
 pub mod cloth;
 mod env;
 pub mod gltf_import;
+pub mod material_map;
 mod mesh;
 pub mod triangle_bvh;
 

@@ -1,0 +1,195 @@
+//! Spatially varying Lafortune materials (cosine-lobes paper §5.1, Fig. 14): a parameter map blends two
+//! Lafortune materials across a mesh, per vertex.
+//!
+//! - The map is an 8-bit PNG; its red channel, read as stored (no sRGB decoding: it is data, not a colour),
+//!   gives t ∈ [0, 1] per texel.
+//! - It is projected from above (+y) onto the mesh's own x–z bounds: column 0 at the smallest x, row 0 (the
+//!   image's top) at the smallest z, so that a camera looking down −z sees it upright. Each vertex reads it
+//!   bilinearly (texel centres, clamped at the edges).
+//! - t blends the base material `a` (t = 0) into `b` (t = 1): ρ_d, k_s and Lafortune's C linearly, the
+//!   exponent e geometrically (e_a^(1−t) e_b^t: exponents span decades). The tangent is `a`'s.
+//! - t is quantized to `levels` materials (a palette, [`MaterialMapping::palette`]); the vertex's level is
+//!   its [`Mesh::material_offsets`] entry. 256 levels reproduce an 8-bit map's values exactly at its texel
+//!   centres.
+//!
+//! Every technique and the reference shade a vertex with its palette material, so they all see the same
+//! spatially varying BRDF (`none` and `isg` through their SG equivalents of Lafortune). Per-pixel shading
+//! takes a triangle's first vertex's level (the material index is flat), so the map is resolved at the mesh's
+//! vertex spacing: tessellate finely (the ground's `subdivisions`).
+
+use super::{Brdf, Material, Mesh, SceneError};
+use glam::Vec3;
+use std::path::Path;
+
+/// The most palette levels of a map.
+pub const MAX_LEVELS: u32 = 256;
+
+/// A scalar parameter map t(u, v) ∈ [0, 1], row-major, row 0 at v = 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialMap {
+    pub width: u32,
+    pub height: u32,
+    pub values: Vec<f32>,
+}
+
+impl MaterialMap {
+    /// A map from values in [0, 1] (`width` × `height`, both ≥ 1).
+    pub fn new(width: u32, height: u32, values: Vec<f32>) -> Result<Self, String> {
+        if width == 0 || height == 0 || values.len() != (width as usize) * (height as usize) {
+            return Err(format!("a {width}×{height} map needs {} values, not {}", width * height, values.len()));
+        }
+        if let Some(v) = values.iter().find(|v| !(0.0..=1.0).contains(*v)) {
+            return Err(format!("value {v} is not in [0, 1]"));
+        }
+        Ok(Self { width, height, values })
+    }
+
+    /// The red channel of an 8-bit RGB or RGBA PNG, as t = red / 255.
+    pub fn load(path: &Path) -> super::Result<Self> {
+        if !path.exists() {
+            return Err(SceneError::NotFound { path: path.to_path_buf() });
+        }
+        let (w, h, rgba) = crate::output::read_png(path).map_err(|e| SceneError::invalid(path, e.to_string()))?;
+        let values = rgba.chunks_exact(4).map(|p| p[0] as f32 / 255.0).collect();
+        Self::new(w, h, values).map_err(|e| SceneError::invalid(path, e))
+    }
+
+    /// Bilinear at (u, v) ∈ [0, 1]² (texel centres at (i + ½)/width, clamped at the edges).
+    pub fn sample(&self, u: f32, v: f32) -> f32 {
+        let axis = |x: f32, n: u32| {
+            let f = (x.clamp(0.0, 1.0) * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+            let i = (f.floor() as u32).min(n - 1);
+            (i, (i + 1).min(n - 1), f - i as f32)
+        };
+        let (x0, x1, fx) = axis(u, self.width);
+        let (y0, y1, fy) = axis(v, self.height);
+        let at = |x: u32, y: u32| self.values[(y * self.width + x) as usize];
+        let top = at(x0, y0) + fx * (at(x1, y0) - at(x0, y0));
+        let bottom = at(x0, y1) + fx * (at(x1, y1) - at(x0, y1));
+        top + fy * (bottom - top)
+    }
+}
+
+/// The blend of Lafortune material `a` (t = 0) into `b` (t = 1) (see the module doc).
+pub fn blend_lafortune(a: &Material, b: &Material, t: f32) -> Result<Material, String> {
+    let (Brdf::Lafortune { c: ca, e: ea }, Brdf::Lafortune { c: cb, e: eb }) = (a.brdf, b.brdf) else {
+        return Err("a material map blends two Lafortune materials (brdf = \"lafortune:…\" or \"phong:…\")".into());
+    };
+    if !(ea > 0.0 && eb > 0.0 && ea.is_finite() && eb.is_finite()) {
+        return Err(format!("the exponents must be finite and > 0 (e = {ea}, {eb})"));
+    }
+    let t = t.clamp(0.0, 1.0);
+    let c = std::array::from_fn(|k| ca[k] + t * (cb[k] - ca[k]));
+    let e = ea.powf(1.0 - t) * eb.powf(t);
+    Ok(Material {
+        diffuse: a.diffuse.lerp(b.diffuse, t),
+        specular: a.specular.lerp(b.specular, t),
+        brdf: Brdf::Lafortune { c, e },
+        ..*a
+    })
+}
+
+/// A material map applied to meshes: `map` blends `a` into `b` in `levels` steps.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialMapping {
+    pub map: MaterialMap,
+    pub b: Material,
+    pub levels: u32,
+}
+
+impl MaterialMapping {
+    /// The `levels` materials level k = 0 … levels − 1 stands for (t = k / (levels − 1)), from base `a`.
+    pub fn palette(&self, a: &Material) -> Result<Vec<Material>, String> {
+        if !(2..=MAX_LEVELS).contains(&self.levels) {
+            return Err(format!("levels = {} is not in 2..={MAX_LEVELS}", self.levels));
+        }
+        let last = (self.levels - 1) as f32;
+        (0..self.levels).map(|k| blend_lafortune(a, &self.b, k as f32 / last)).collect()
+    }
+
+    /// Set `mesh`'s material offsets: each vertex's nearest level of the map projected onto the mesh's x–z
+    /// bounds (a degenerate axis reads the map's middle).
+    pub fn apply(&self, mesh: &mut Mesh) {
+        let lo = mesh.positions.iter().fold(Vec3::splat(f32::INFINITY), |a, p| a.min(*p));
+        let hi = mesh.positions.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, p| a.max(*p));
+        let along = |x: f32, l: f32, h: f32| if h > l { (x - l) / (h - l) } else { 0.5 };
+        let last = self.levels.saturating_sub(1) as f32;
+        mesh.material_offsets = mesh
+            .positions
+            .iter()
+            .map(|p| {
+                let t = self.map.sample(along(p.x, lo.x, hi.x), along(p.z, lo.z, hi.z));
+                (t * last).round() as u32
+            })
+            .collect();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lafortune(c: [f32; 3], e: f32, ks: f32) -> Material {
+        Material { brdf: Brdf::Lafortune { c, e }, ..Material::glossy(Vec3::splat(0.2), ks, 1.0) }
+    }
+
+    #[test]
+    fn sampling_is_bilinear_between_texel_centres_and_clamped() {
+        let m = MaterialMap::new(2, 1, vec![0.0, 1.0]).unwrap();
+        assert_eq!(m.sample(0.0, 0.5), 0.0);
+        assert_eq!(m.sample(0.25, 0.5), 0.0, "the first texel's centre");
+        assert!((m.sample(0.5, 0.5) - 0.5).abs() < 1e-6);
+        assert_eq!(m.sample(0.75, 0.5), 1.0);
+        assert_eq!(m.sample(2.0, -1.0), 1.0, "clamped");
+        let one = MaterialMap::new(1, 1, vec![0.3]).unwrap();
+        assert_eq!(one.sample(0.9, 0.1), 0.3);
+    }
+
+    #[test]
+    fn bad_maps_are_refused() {
+        assert!(MaterialMap::new(0, 1, vec![]).is_err());
+        assert!(MaterialMap::new(2, 2, vec![0.0; 3]).unwrap_err().contains("needs 4 values"));
+        assert!(MaterialMap::new(1, 1, vec![f32::NAN]).is_err());
+        assert!(MaterialMap::new(1, 1, vec![1.5]).is_err());
+        let e = MaterialMap::load(Path::new("/nonexistent/map.png")).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent/map.png") && e.contains("not found"), "{e}");
+    }
+
+    #[test]
+    fn the_blend_is_linear_in_c_and_geometric_in_e() {
+        let (a, b) = (lafortune([-1.0, -1.0, 1.0], 10.0, 0.2), lafortune([-0.2, -1.0, 0.6], 1000.0, 0.6));
+        let m = blend_lafortune(&a, &b, 0.5).unwrap();
+        let Brdf::Lafortune { c, e } = m.brdf else { panic!() };
+        assert!((e - 100.0).abs() < 1e-3, "{e}");
+        assert!(c.iter().zip([-0.6, -1.0, 0.8]).all(|(x, y)| (x - y).abs() < 1e-6), "{c:?}");
+        assert!((m.specular - Vec3::splat(0.4)).abs().max_element() < 1e-6);
+        assert_eq!(blend_lafortune(&a, &b, 0.0).unwrap(), a);
+        let e = blend_lafortune(&Material::glossy(Vec3::ONE, 0.5, 50.0), &b, 0.5).unwrap_err();
+        assert!(e.contains("Lafortune"), "{e}");
+    }
+
+    #[test]
+    fn vertices_take_the_nearest_level_of_the_map_below_them() {
+        // A 3-vertex strip along x over a black | white map: the left vertex level 0, the right the last.
+        let mut mesh = Mesh {
+            name: "strip".into(),
+            positions: vec![Vec3::new(-1.0, 0.0, 0.0), Vec3::new(0.1, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0)],
+            normals: vec![Vec3::Y; 3],
+            indices: vec![0, 1, 2],
+            material_offsets: Vec::new(),
+        };
+        let mapping = MaterialMapping {
+            map: MaterialMap::new(2, 1, vec![0.0, 1.0]).unwrap(),
+            b: lafortune([-1.0, -1.0, 1.0], 100.0, 0.5),
+            levels: 5,
+        };
+        mapping.apply(&mut mesh);
+        // x = 0.1 is u = 0.55: t = 0.6 between the texel centres, level round(0.6 · 4) = 2.
+        assert_eq!(mesh.material_offsets, vec![0, 2, 4]);
+        let palette = mapping.palette(&lafortune([-1.0, -1.0, 1.0], 1.0, 0.1)).unwrap();
+        assert_eq!(palette.len(), 5);
+        assert_eq!(palette[4].brdf, Brdf::Lafortune { c: [-1.0, -1.0, 1.0], e: 100.0 });
+        assert!(MaterialMapping { levels: 1, ..mapping.clone() }.palette(&palette[0]).is_err());
+        assert!(MaterialMapping { levels: 257, ..mapping }.palette(&palette[0]).is_err());
+    }
+}
