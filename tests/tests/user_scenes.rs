@@ -505,7 +505,7 @@ fn material_maps_blend_lafortune_per_vertex() {
         ("map-missing.toml", text.replace("lafortune_map.png", "absent.png"), &["material_map.file", "absent.png"]),
         (
             "map-blinn.toml",
-            text.replace("brdf = \"lafortune:cx=-1,cy=-1,cz=0.7,e=400\"", "brdf = \"blinn-phong:s=100\""),
+            text.replace("brdf = \"phong:e=400\"", "brdf = \"blinn-phong:s=100\""),
             &["ground.material_map", "Lafortune"],
         ),
         ("map-subdivisions.toml", text.replace("subdivisions = 256", "subdivisions = 0"), &["ground.subdivisions"]),

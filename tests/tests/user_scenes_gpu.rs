@@ -38,7 +38,7 @@ fn options(test: &str) -> UserOptions {
 fn example_scene_files_render_and_the_arm_moves() {
     let gpu = engine_tests::gpu();
     let assets = demos::assets_dir();
-    for name in ["arm.toml", "still_life.toml", "glossy_light.toml"] {
+    for name in ["arm.toml", "still_life.toml", "glossy_light.toml", "lafortune_map.toml"] {
         let u = user::scene_file(&example(name), None, &assets, &options("examples"))
             .unwrap_or_else(|e| panic!("{name}: {e:#}"));
         let settings = RenderSettings { width: W, height: H, ..Default::default() };
