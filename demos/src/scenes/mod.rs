@@ -83,6 +83,7 @@ pub mod lamp;
 pub mod shapes;
 pub mod sheet;
 pub mod sphere;
+pub mod spheres;
 pub mod user;
 
 /// Every demo scene, in the order `--help` lists them.
@@ -90,6 +91,7 @@ pub const SCENES: &[SceneEntry] = &[
     bunny::SCENE,
     lamp::SCENE,
     lamp::SCENE_ONE,
+    spheres::SCENE,
     sheet::SCENE,
     arm::SCENE,
     sphere::SCENE,
