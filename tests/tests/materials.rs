@@ -166,5 +166,14 @@ fn per_vertex_materials_reach_every_technique() {
             assert!(apart > 0.05, "{what}: the two materials render alike ({apart})");
         }
     }
+    // Bad offsets are errors, not frames: a wrong count, and offsets past the last material.
+    let mut short = mixed.clone();
+    short.meshes[0].material_offsets.pop();
+    let e = Renderer::new(&gpu, &short, settings("none")).err().expect("a short offset list").to_string();
+    assert!(e.contains("material offsets for") && e.contains("vertices"), "{e}");
+    let mut past = mixed.clone();
+    past.instances[0].material = 2;
+    let e = Renderer::new(&gpu, &past, settings("none")).err().expect("offsets past the materials").to_string();
+    assert!(e.contains("reach material 3 of 3"), "{e}");
     gpu.shutdown().expect("clean teardown");
 }
