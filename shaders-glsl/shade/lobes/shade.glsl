@@ -95,6 +95,12 @@ layout(std430, binding = 21) readonly buffer BlockerPlanes {
 #define LOBES_STACK (3 * LOBES_MAX_DEPTH + 1)
 #define LOBES_MAX_R 2
 const float LOBES_MASK_MAX_HALF_ANGLE = 1.4;
+// llvmpipe ends every loop of an invocation once 65535 loop iterations have run in it (all loops together,
+// and for the 8 lanes that run together): a deep mask over many blockers (depth 5–6 near a bunny's shadow edge)
+// ran past it and lost its light. So each mask stops refining once it has spent this much work (a visited cell
+// costs 4, each blocker or plane tested 1): later cells are leaves at their depth, as at the maximal depth.
+// Twin: engine::passes::shade::lobes::MASK_WORK_BUDGET.
+const uint LOBES_MASK_WORK_BUDGET = 32768u;
 
 struct Lobe {
     vec3 axis;
@@ -321,9 +327,10 @@ void lobes_gather(vec3 p, vec3 n, vec3 axis, float tan_half, uint depth) {
 
 // 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit;
 // gamma: the cell's bounding-cone half-angle.
-int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes) {
+int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes, inout uint work) {
     bool partial = false;
     for (uint i = 0u; i < g_blocker_count; ++i) {
+        work += 1u;
         vec4 b = g_blockers[i];
         if (lobe_angle_between(b.xyz, centre) >= b.w + gamma) continue;
         float cb = cos(b.w);
@@ -331,6 +338,7 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes) {
         partial = true;
     }
     for (uint i = 0u; i < (planes ? plane_count : 0u); ++i) {
+        work += 1u;
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, g_p)) continue;
         if (!plane_is_rectangle(pl)) {
@@ -378,6 +386,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
     uint size = 1u;
     stack[0] = 0u;  // (depth, ix, iy) packed as depth | ix << 4 | iy << 16
     uint depth_max = min(depth_req, uint(LOBES_MAX_DEPTH));
+    uint work = 0u;
     while (size > 0u) {
         size -= 1u;
         uint cell = stack[size];
@@ -401,8 +410,10 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         vec3 centre = normalize(axis + tan_half * (cx * t + cy * b));
         float gamma = 0.0;
         for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
-        int state = lobes_cell_state(q, centre, gamma, planes);
+        work += 4u;
+        int state = lobes_cell_state(q, centre, gamma, planes, work);
         if (state == 0) continue;
+        bool refine = work < LOBES_MASK_WORK_BUDGET;
         // The whole mask covered: the light is hidden (S = U; the cap lobe's tail past the mask is
         // counted hidden too).
         if (state == 2 && d == 0u) {
@@ -411,7 +422,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         }
         // Covered cells split down to `split` so that their lobes are narrower than the light's:
         // one broad leaf lobe peaks at ~0.6 and leaves its centre lit.
-        if (state == 2 && d < min(lp.split, depth_max)) {
+        if (state == 2 && d < min(lp.split, depth_max) && refine) {
             for (uint k = 0u; k < 4u; ++k) {
                 stack[size] = (d + 1u) | ((2u * ix + (k & 1u)) << 4) | ((2u * iy + (k >> 1)) << 16);
                 size += 1u;
@@ -419,7 +430,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
             continue;
         }
         if (state == 1) {
-            if (d < depth_max) {
+            if (d < depth_max && refine) {
                 for (uint k = 0u; k < 4u; ++k) {
                     uint cix = 2u * ix + (k & 1u);
                     uint ciy = 2u * iy + (k >> 1);

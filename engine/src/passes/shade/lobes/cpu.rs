@@ -466,10 +466,12 @@ impl Twin {
         let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres);
         out.overflow |= overflow;
         let (t, b) = orthonormal_basis(axis);
-        let active: Vec<&BlockerPlane> = planes.iter().filter(|pl| with_planes && pl.blocks_receiver(p)).collect();
-        let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64| -> u8 {
+        let tested: &[BlockerPlane] = if with_planes { planes } else { &[] };
+        // The shader's cell state, counting its work (each blocker and plane tested, in its order).
+        let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64, work: &mut u32| -> u8 {
             let mut partial = false;
             for &(c, beta) in &blockers {
+                *work += 1;
                 if angle_between(c.to_array(), centre.to_array()) >= beta + gamma {
                     continue;
                 }
@@ -479,7 +481,11 @@ impl Twin {
                 }
                 partial = true;
             }
-            for pl in &active {
+            for pl in tested {
+                *work += 1;
+                if !pl.blocks_receiver(p) {
+                    continue;
+                }
                 match pl.edge_normals(p) {
                     None => {
                         let k = q.iter().filter(|x| pl.normal.dot(**x) < 0.0).count();
@@ -506,6 +512,7 @@ impl Twin {
         };
         let depth_max = depth.min(super::MAX_DEPTH);
         let mut stack: Vec<(u32, u32, u32)> = vec![(0, 0, 0)];
+        let mut work = 0u32;
         while let Some((d, ix, iy)) = stack.pop() {
             let h = 1.0 / (1u32 << d) as f64;
             let cx = -1.0 + (2.0 * ix as f64 + 1.0) * h;
@@ -521,14 +528,16 @@ impl Twin {
             }
             let centre = (axis + tan_half * (cx * t + cy * b)).normalize();
             let gamma = q.iter().map(|x| angle_between(centre.to_array(), x.to_array())).fold(0.0, f64::max);
-            let st = state(&q, centre, gamma);
+            work += 4;
+            let st = state(&q, centre, gamma, &mut work);
+            let refine = work < super::MASK_WORK_BUDGET;
             if st == 2 && d == 0 {
                 // The whole mask covered: hidden (S = U).
                 out.s = out.u;
                 out.hidden = true;
                 return;
             }
-            if st == 2 && d < o.split.min(depth_max) {
+            if st == 2 && d < o.split.min(depth_max) && refine {
                 for k in 0..4u32 {
                     stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));
                 }
@@ -536,7 +545,7 @@ impl Twin {
             }
             match st {
                 0 => continue,
-                1 if d < depth_max => {
+                1 if d < depth_max && refine => {
                     // Pushed in the shader's order (k = 0..3), popped last first.
                     for k in 0..4u32 {
                         stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));

@@ -37,6 +37,10 @@ pub mod fit;
 pub const MAX_BLOCKERS: usize = 64;
 /// Deepest quad-tree the shader supports (LOBES_MAX_DEPTH).
 pub const MAX_DEPTH: u32 = 6;
+/// The work one mask may spend before it stops refining (a visited cell 4, each blocker or plane tested 1;
+/// later cells are leaves at their depth): llvmpipe ends every loop of an invocation after 65535 iterations in
+/// all, which deep masks over many blockers reached (LOBES_MASK_WORK_BUDGET).
+pub const MASK_WORK_BUDGET: u32 = 32768;
 /// The mask's half-angle never exceeds this (radians; LOBES_MASK_MAX_HALF_ANGLE).
 pub const MASK_MAX_HALF_ANGLE: f64 = 1.4;
 /// Most environment lobes of `env=lobes` (option `K`): the shader keeps 2 K products R × L_k per receiver.
