@@ -276,5 +276,12 @@ fn builtin_export_refuses_what_it_cannot_approximate() {
     export_mitsuba(&scene, &dir, &opts).expect("plugin export");
     assert_eq!(ExportBsdf::parse("plugin"), Ok(ExportBsdf::Plugin));
     assert!(ExportBsdf::parse("mitsuba").is_err());
+    // Per-vertex materials (a material map) are not carried: refused, not exported as the first level.
+    let mut mapped = demos::scenes::build("bunny", None).expect("bunny scene");
+    mapped.materials.push(mapped.materials[1]);
+    let ground = &mut mapped.meshes[1];
+    ground.material_offsets = ground.positions.iter().map(|p| u32::from(p.x > 0.0)).collect();
+    let e = export_mitsuba(&mapped, &dir, &opts).expect_err("per-vertex materials");
+    assert!(format!("{e:#}").contains("per-vertex materials"), "{e:#}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -39,11 +39,12 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()
     w.write_image_data(rgba).map_err(|e| err(path, e))
 }
 
-/// Read an 8-bit RGBA (or RGB) PNG: (width, height, RGBA8 bytes).
+/// Read a PNG as 8-bit RGBA: (width, height, RGBA8 bytes). Palette, grey and grey-alpha images are expanded,
+/// 16-bit channels reduced to their high byte.
 pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), OutputError> {
     let file = std::fs::File::open(path).map_err(|e| err(path, e))?;
     let mut dec = png::Decoder::new(std::io::BufReader::new(file));
-    dec.set_transformations(png::Transformations::EXPAND);
+    dec.set_transformations(png::Transformations::normalize_to_color8());
     let mut reader = dec.read_info().map_err(|e| err(path, e))?;
     let mut buf = vec![0; reader.output_buffer_size().ok_or_else(|| err(path, "image too large"))?];
     let info = reader.next_frame(&mut buf).map_err(|e| err(path, e))?;
@@ -51,6 +52,8 @@ pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), OutputError> {
     let rgba = match info.color_type {
         png::ColorType::Rgba => buf,
         png::ColorType::Rgb => buf.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
+        png::ColorType::Grayscale => buf.iter().flat_map(|&g| [g, g, g, 255]).collect(),
+        png::ColorType::GrayscaleAlpha => buf.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
         other => return Err(err(path, format!("unsupported PNG colour type {other:?}"))),
     };
     Ok((info.width, info.height, rgba))

@@ -26,7 +26,7 @@ pub const BALLS: [([f32; 3], f32); 5] = [
     ([0.75, 0.2, -0.6], 0.2),
 ];
 
-/// The light: up and behind the balls on the left, half-angle about 0.15 rad from the middle of the ground.
+/// The light: up and behind the balls on the left, half-angle about 0.14 rad from the middle of the ground.
 pub const LIGHT: SphereLight =
     SphereLight { center: Vec3::new(-0.8, 2.0, -1.4), radius: 0.35, radiance: Vec3::new(30.0, 28.0, 25.0) };
 

@@ -52,11 +52,26 @@ pub(crate) fn bilinear_wrap_u(
     let r0 = y0 as usize;
     let r1 = (r0 + 1).min(rows - 1);
     let (t00, t10, t01, t11) = (texel(c0, r0), texel(c1, r0), texel(c0, r1), texel(c1, r1));
-    [0, 1, 2].map(|k| {
-        let a = t00[k] as f64 * (1.0 - fx) + t10[k] as f64 * fx;
-        let b = t01[k] as f64 * (1.0 - fx) + t11[k] as f64 * fx;
-        a * (1.0 - fy) + b * fy
-    })
+    [0, 1, 2].map(|k| blend([t00[k], t10[k], t01[k], t11[k]], fx, fy))
+}
+
+/// Bilinear interpolation of a `width` × `rows` grid of scalars at continuous texel coordinates (x, y) (texel
+/// centres at integers), clamped to the edge in both: a GPU sampler with CLAMP_TO_EDGE (material maps).
+pub fn bilinear_clamp(texel: impl Fn(usize, usize) -> f32, width: usize, rows: usize, x: f64, y: f64) -> f64 {
+    let axis = |v: f64, n: usize| {
+        let v = v.clamp(0.0, (n - 1) as f64);
+        let i = (v.floor() as usize).min(n - 1);
+        (i, (i + 1).min(n - 1), v - i as f64)
+    };
+    let ((c0, c1, fx), (r0, r1, fy)) = (axis(x, width), axis(y, rows));
+    blend([texel(c0, r0), texel(c1, r0), texel(c0, r1), texel(c1, r1)], fx, fy)
+}
+
+/// (t00, t10, t01, t11) weighted by the fractions (fx, fy) along x and y.
+fn blend(t: [f32; 4], fx: f64, fy: f64) -> f64 {
+    let a = t[0] as f64 * (1.0 - fx) + t[1] as f64 * fx;
+    let b = t[2] as f64 * (1.0 - fx) + t[3] as f64 * fx;
+    a * (1.0 - fy) + b * fy
 }
 
 /// An RGB lat-long radiance map in linear units, row-major, row 0 at the zenith.
@@ -163,6 +178,18 @@ impl LatLongMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bilinear_clamp_interpolates_between_centres_and_clamps_at_edges() {
+        let g = [0.0f32, 1.0, 2.0, 3.0]; // 2 × 2: row 0 = (0, 1), row 1 = (2, 3)
+        let f = |x: f64, y: f64| bilinear_clamp(|c, r| g[r * 2 + c], 2, 2, x, y);
+        assert_eq!(f(0.0, 0.0), 0.0);
+        assert_eq!(f(1.0, 1.0), 3.0);
+        assert!((f(0.5, 0.5) - 1.5).abs() < 1e-12);
+        assert!((f(0.25, 1.0) - 2.25).abs() < 1e-12);
+        assert_eq!(f(-3.0, 9.0), 2.0, "clamped to the corner texel");
+        assert_eq!(bilinear_clamp(|_, _| 0.7, 1, 1, 0.4, -2.0), 0.7f32 as f64);
+    }
 
     #[test]
     fn direction_uv_round_trip() {

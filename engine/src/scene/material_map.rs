@@ -56,17 +56,10 @@ impl MaterialMap {
 
     /// Bilinear at (u, v) ∈ [0, 1]² (texel centres at (i + ½)/width, clamped at the edges).
     pub fn sample(&self, u: f32, v: f32) -> f32 {
-        let axis = |x: f32, n: u32| {
-            let f = (x.clamp(0.0, 1.0) * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
-            let i = (f.floor() as u32).min(n - 1);
-            (i, (i + 1).min(n - 1), f - i as f32)
-        };
-        let (x0, x1, fx) = axis(u, self.width);
-        let (y0, y1, fy) = axis(v, self.height);
-        let at = |x: u32, y: u32| self.values[(y * self.width + x) as usize];
-        let top = at(x0, y0) + fx * (at(x1, y0) - at(x0, y0));
-        let bottom = at(x0, y1) + fx * (at(x1, y1) - at(x0, y1));
-        top + fy * (bottom - top)
+        let (w, h) = (self.width as usize, self.height as usize);
+        let x = u.clamp(0.0, 1.0) as f64 * w as f64 - 0.5;
+        let y = v.clamp(0.0, 1.0) as f64 * h as f64 - 0.5;
+        engine_math::envmap::bilinear_clamp(|c, r| self.values[r * w + c], w, h, x, y) as f32
     }
 }
 
@@ -153,6 +146,35 @@ mod tests {
         assert!(MaterialMap::new(1, 1, vec![1.5]).is_err());
         let e = MaterialMap::load(Path::new("/nonexistent/map.png")).unwrap_err().to_string();
         assert!(e.contains("/nonexistent/map.png") && e.contains("not found"), "{e}");
+    }
+
+    fn write_png(name: &str, color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> std::path::PathBuf {
+        let path = std::env::temp_dir().join(format!("material-map-{}-{name}.png", std::process::id()));
+        let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        let mut enc = png::Encoder::new(file, 2, 1);
+        enc.set_color(color);
+        enc.set_depth(depth);
+        enc.write_header().unwrap().write_image_data(data).unwrap();
+        path
+    }
+
+    /// Parameter maps are often grey or 16-bit: both load (the high byte), a corrupt file is an error naming it.
+    #[test]
+    fn grey_and_16_bit_maps_load_and_corrupt_ones_are_errors() {
+        use png::{BitDepth, ColorType};
+        let grey = write_png("grey", ColorType::Grayscale, BitDepth::Eight, &[0, 255]);
+        assert_eq!(MaterialMap::load(&grey).unwrap().values, vec![0.0, 1.0]);
+        let grey16 = write_png("grey16", ColorType::Grayscale, BitDepth::Sixteen, &[0x80, 0x00, 0xff, 0xff]);
+        assert_eq!(MaterialMap::load(&grey16).unwrap().values, vec![128.0 / 255.0, 1.0]);
+        let grey_alpha = write_png("grey-alpha", ColorType::GrayscaleAlpha, BitDepth::Eight, &[51, 255, 102, 0]);
+        assert_eq!(MaterialMap::load(&grey_alpha).unwrap().values, vec![0.2, 0.4]);
+        let corrupt = std::env::temp_dir().join(format!("material-map-{}-corrupt.png", std::process::id()));
+        std::fs::write(&corrupt, b"\x89PNG not really").unwrap();
+        let e = MaterialMap::load(&corrupt).unwrap_err().to_string();
+        assert!(e.contains(&corrupt.display().to_string()), "{e}");
+        for p in [grey, grey16, grey_alpha, corrupt] {
+            let _ = std::fs::remove_file(p);
+        }
     }
 
     #[test]
