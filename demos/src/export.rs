@@ -305,7 +305,7 @@ fn plugin_bsdf_xml(id: &str, m: &Material) -> String {
                 float(&mut x, &format!("tangent_{c}"), value);
             }
         }
-        Brdf::Lafortune { c, e } => {
+        Brdf::Lafortune { c, e, .. } => {
             for (key, value) in ["cx", "cy", "cz", "e"].iter().zip([c[0], c[1], c[2], e]) {
                 float(&mut x, key, value);
             }

@@ -74,12 +74,16 @@ pub fn spin_environment(
 }
 
 /// The BRDFs the viewer's `B` key steps through after the scene's own: diffuse, highly specular,
-/// anisotropic, microfacet (ISG Fig. 7's range).
+/// anisotropic, several Lafortune lobes, microfacet (ISG Fig. 7's range).
 pub const BRDF_PRESETS: &[(&str, &str)] = &[
     ("diffuse", "blinn-phong:ks=0"),
     ("Blinn-Phong s=1000", "blinn-phong:s=1000,ks=0.5"),
     ("Ashikhmin-Shirley nu=1000 nv=10", "ashikhmin-shirley:nu=1000,nv=10,ks=0.5"),
     ("Lafortune anisotropic e=60", "lafortune:cx=-1,cy=-0.85,cz=1,e=60,ks=0.5,tangent=1/0/0"),
+    (
+        "Lafortune 3 lobes: sharp, broad off-specular, retro",
+        "lafortune:cx=-1,cy=-1,cz=1,e=200,ks=0.3,w1=2,cx1=-0.8,cy1=-0.8,cz1=0.8,e1=8,w2=1,cx2=0.9,cy2=0.9,cz2=0.9,e2=20",
+    ),
     ("Cook-Torrance GGX 0.2", "cook-torrance:roughness=0.2,ndf=ggx,ks=0.5"),
 ];
 

@@ -3,7 +3,7 @@
 //!
 //! Controls: left mouse drag orbits, wheel zooms, `T`/`Tab` cycles techniques, `V` toggles
 //! per-vertex/per-pixel shading, `B` steps the glossy materials' BRDF (the scene's own, diffuse, Blinn-Phong
-//! s = 1000, anisotropic Ashikhmin-Shirley, anisotropic Lafortune, Cook-Torrance GGX: [`crate::BRDF_PRESETS`]), `P`/space pause and
+//! s = 1000, anisotropic Ashikhmin-Shirley, anisotropic Lafortune, three Lafortune lobes, Cook-Torrance GGX: [`crate::BRDF_PRESETS`]), `P`/space pause and
 //! `.`/`,` step the animation, `+`/`-` change exposure, `R` resets the camera, `Esc`/`Q` quits.
 //! The scene renders at the requested resolution and is scaled to the window.
 

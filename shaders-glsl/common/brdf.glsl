@@ -81,18 +81,47 @@ float brdf_pow_pos(float x, float e) {
     return x > 0.0 ? exp(e * log(x)) : 0.0;
 }
 
-// The Lafortune lobe seen from v: axis d = M v/|M v| (M = diag(C) in the frame (t, n × t, n)) and
-// the peak factor g^e, g = |M v| (0 with d = n where M v = 0). Twin: lafortune_lobe.
-vec3 brdf_lafortune_lobe(Material m, vec3 n, vec3 t, vec3 v, out float peak) {
+#define BRDF_LAFORTUNE_LOBES 3
+
+// Lafortune lobe i (0 .. BRDF_LAFORTUNE_LOBES − 1): (C_x, C_y, C_z, e), and its weight w_i (0: absent).
+vec4 brdf_lafortune_ce(Material m, int i) {
+    return i == 0 ? m.brdf : m.more[i - 1];
+}
+float brdf_lafortune_w(Material m, int i) {
+    return m.lobes[i];
+}
+
+// A Lafortune lobe ce = (C, e) seen from v: axis d = M v/|M v| (M = diag(C) in the frame (t, n × t, n))
+// and the peak factor g^e, g = |M v| (0 with d = n where M v = 0). Twin: lafortune_lobe.
+vec3 brdf_lafortune_lobe(vec4 ce, vec3 n, vec3 t, vec3 v, out float peak) {
     vec3 b = cross(n, t);
-    vec3 mv = m.brdf.x * dot(v, t) * t + m.brdf.y * dot(v, b) * b + m.brdf.z * dot(v, n) * n;
+    vec3 mv = ce.x * dot(v, t) * t + ce.y * dot(v, b) * b + ce.z * dot(v, n) * n;
     float g = length(mv);
     if (g <= 1e-12) {
         peak = 0.0;
         return n;
     }
-    peak = exp(m.brdf.w * log(g));
+    peak = exp(ce.w * log(g));
     return mv / g;
+}
+
+// The probabilities of sampling each Lafortune lobe from v, ∝ w_i g_i^e_i (e_i+2)/(e_i+1) (uniform over
+// the present lobes where all vanish), and the lobes' axes. Twin: lafortune_pick.
+void brdf_lafortune_pick(Material m, vec3 n, vec3 t, vec3 v, out float p[BRDF_LAFORTUNE_LOBES],
+                         out vec3 axis[BRDF_LAFORTUNE_LOBES]) {
+    float sum = 0.0, present = 0.0;
+    for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
+        vec4 ce = brdf_lafortune_ce(m, i);
+        float w = brdf_lafortune_w(m, i);
+        float peak = 0.0;
+        axis[i] = brdf_lafortune_lobe(ce, n, t, v, peak);
+        p[i] = w > 0.0 ? w * peak * (ce.w + 2.0) / (ce.w + 1.0) : 0.0;
+        sum += p[i];
+        present += w > 0.0 ? 1.0 : 0.0;
+    }
+    for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
+        p[i] = sum > 0.0 ? p[i] / sum : (brdf_lafortune_w(m, i) > 0.0 ? 1.0 / present : 0.0);
+    }
 }
 
 // The Lafortune normalization (e+2)/(2π) (twin: lafortune_norm).
@@ -125,9 +154,16 @@ vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
         return brdf_schlick(ks, vh) * (d * g / (4.0 * nl * nv));
     }
     if (kind == BRDF_LAFORTUNE) {
-        float peak;
-        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
-        return ks * (brdf_lafortune_norm(m.brdf.w) * peak * brdf_pow_pos(dot(d, l), m.brdf.w));
+        float f = 0.0;
+        for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
+            float w = brdf_lafortune_w(m, i);
+            if (w <= 0.0) continue;
+            vec4 ce = brdf_lafortune_ce(m, i);
+            float peak;
+            vec3 d = brdf_lafortune_lobe(ce, n, t, v, peak);
+            f += w * brdf_lafortune_norm(ce.w) * peak * brdf_pow_pos(dot(d, l), ce.w);
+        }
+        return ks * f;
     }
     if (vh <= 0.0) return vec3(0.0);
     vec3 b = cross(n, t);
@@ -182,12 +218,19 @@ vec3 brdf_sample_half(Material m, vec3 n, vec3 t, float u1, float u2) {
 }
 
 // Density over light directions of the specular sampling (twin: dir_pdf): brdf_half_pdf / (4 v·h)
-// for the half-vector models, (e+1)/(2π) max(d·l, 0)^e about the Lafortune axis d.
+// for the half-vector models; Lafortune the mixture Σ_i p_i (e_i+1)/(2π) max(d_i·l, 0)^e_i about the
+// lobes' axes d_i (p_i of brdf_lafortune_pick).
 float brdf_dir_pdf(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
     if (brdf_kind(m) == BRDF_LAFORTUNE) {
-        float peak;
-        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
-        return (m.brdf.w + 1.0) / (2.0 * PI) * brdf_pow_pos(dot(d, l), m.brdf.w);
+        float p[BRDF_LAFORTUNE_LOBES];
+        vec3 d[BRDF_LAFORTUNE_LOBES];
+        brdf_lafortune_pick(m, n, t, v, p, d);
+        float pdf = 0.0;
+        for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
+            float e = brdf_lafortune_ce(m, i).w;
+            if (p[i] > 0.0) pdf += p[i] * (e + 1.0) / (2.0 * PI) * brdf_pow_pos(dot(d[i], l), e);
+        }
+        return pdf;
     }
     vec3 h = v + l;
     float len = length(h);
@@ -202,9 +245,25 @@ float brdf_dir_pdf(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
 // A light direction distributed by brdf_dir_pdf, from two uniforms (may point below the surface).
 vec3 brdf_sample_dir(Material m, vec3 n, vec3 t, vec3 v, float u1, float u2) {
     if (brdf_kind(m) == BRDF_LAFORTUNE) {
-        float peak;
-        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
-        float c = pow(1.0 - u1, 1.0 / (m.brdf.w + 1.0));
+        // Pick lobe i with probability p_i by u1, then reuse u1 rescaled within its interval.
+        float p[BRDF_LAFORTUNE_LOBES];
+        vec3 axes[BRDF_LAFORTUNE_LOBES];
+        brdf_lafortune_pick(m, n, t, v, p, axes);
+        // The last present lobe whose interval starts at or below u1 (lobe 0, w = 1, always is one).
+        int i = 0;
+        float lo = 0.0, acc = 0.0;
+        for (int k = 0; k < BRDF_LAFORTUNE_LOBES; ++k) {
+            if (p[k] <= 0.0) continue;
+            if (u1 >= acc) {
+                i = k;
+                lo = acc;
+            }
+            acc += p[k];
+        }
+        u1 = p[i] > 0.0 ? clamp((u1 - lo) / p[i], 0.0, 1.0) : u1;
+        vec3 d = axes[i];
+        float e = brdf_lafortune_ce(m, i).w;
+        float c = pow(1.0 - u1, 1.0 / (e + 1.0));
         float s = sqrt(max(0.0, 1.0 - c * c));
         float phi = 2.0 * PI * u2;
         vec3 a, b;
@@ -248,13 +307,20 @@ int brdf_specular_lobes(Material m, vec3 n, vec3 v, out SpecLobe lobes[BRDF_MAX_
     }
     vec3 t = brdf_tangent(m, n);
     if (kind == BRDF_LAFORTUNE) {
-        // One SG about the lobe axis with λ = e + 1 (the same peak and integral).
-        float peak;
-        vec3 d = brdf_lafortune_lobe(m, n, t, v, peak);
-        lobes[0].axis = d;
-        lobes[0].lambda = m.brdf.w + 1.0;
-        lobes[0].weight = ks * (brdf_lafortune_norm(m.brdf.w) * peak * max(dot(n, d), 0.0));
-        return 1;
+        // One SG per lobe about its axis with λ = e + 1 (the same peak and integral).
+        int count = 0;
+        for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
+            float w = brdf_lafortune_w(m, i);
+            if (w <= 0.0) continue;
+            vec4 ce = brdf_lafortune_ce(m, i);
+            float peak;
+            vec3 d = brdf_lafortune_lobe(ce, n, t, v, peak);
+            lobes[count].axis = d;
+            lobes[count].lambda = ce.w + 1.0;
+            lobes[count].weight = ks * (w * brdf_lafortune_norm(ce.w) * peak * max(dot(n, d), 0.0));
+            count += 1;
+        }
+        return count;
     }
     vec3 b = cross(n, t);
     vec3 wide = m.lobes_along_b > 0.5 ? b : t;

@@ -19,8 +19,9 @@ struct Object {
 };
 
 // brdf holds the parameters of the model `kind` names: Cook-Torrance (α, λ_h, μ, 0),
-// Ashikhmin-Shirley (n_u, n_v, λ_h, δ) or Lafortune (C_x, C_y, C_z, e), unused for Blinn-Phong; lobes = Ashikhmin-Shirley amplitudes
-// μ_|k|, k = 0..3 (indexed by k). Twin: engine::passes::layout::GpuMaterial (filled from
+// Ashikhmin-Shirley (n_u, n_v, λ_h, δ) or Lafortune (C_x, C_y, C_z, e) of its lobe 0, unused for Blinn-Phong;
+// lobes = per-lobe amplitudes: Ashikhmin-Shirley μ_|k|, k = 0..3 (indexed by k), Lafortune (1, w_1, w_2, 0)
+// (w_i = 0: lobe i absent) with the (C, e) of lobes 1 and 2 in `more`. Twin: engine::passes::layout::GpuMaterial (filled from
 // engine::scene::Material).
 struct Material {
     vec3 diffuse;         // ρ_d
@@ -32,6 +33,7 @@ struct Material {
     vec4 lobes;
     vec3 tangent;         // anisotropy direction
     float lobes_along_b;  // 1: the Ashikhmin-Shirley lobes lie along b, 0: along t
+    vec4 more[2];         // Lafortune: (C_x, C_y, C_z, e) of lobes 1 and 2
 };
 
 // Twin: engine::passes::layout::FrameData.

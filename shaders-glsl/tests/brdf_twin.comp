@@ -1,8 +1,8 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Twin test of common/brdf.glsl against engine/math/src/brdf.rs.
-// Input, stride 29 floats per case: [0..20) the Material (the 20 floats of GpuMaterial, std430 order),
-//   [20..23) n, [23..26) v, [26..29) l (unit vectors).
+// Input, stride 37 floats per case: [0..28) the Material (the 28 floats of GpuMaterial, std430 order),
+//   [28..31) n, [31..34) v, [34..37) l (unit vectors).
 // Output, stride 56 floats per case:
 //   [0..3) brdf_specular(m, n, t, v, l)   [3] brdf_dir_pdf(m, n, t, v, l)
 //   [4..7) t = brdf_tangent(m, n)
@@ -13,7 +13,7 @@ layout(std430, set = 0, binding = 0) readonly buffer Input { float data_in[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Output { float data_out[]; };
 layout(push_constant) uniform Push { uint count; } pc;
 
-const uint IN_STRIDE = 29u;
+const uint IN_STRIDE = 37u;
 const uint OUT_STRIDE = 56u;
 
 vec4 in4(uint b) {
@@ -38,9 +38,11 @@ void main() {
     m.lobes = in4(b + 12u);
     m.tangent = in3(b + 16u);
     m.lobes_along_b = data_in[b + 19u];
-    vec3 n = in3(b + 20u);
-    vec3 v = in3(b + 23u);
-    vec3 l = in3(b + 26u);
+    m.more[0] = in4(b + 20u);
+    m.more[1] = in4(b + 24u);
+    vec3 n = in3(b + 28u);
+    vec3 v = in3(b + 31u);
+    vec3 l = in3(b + 34u);
     vec3 t = brdf_tangent(m, n);
     vec3 f = brdf_specular(m, n, t, v, l);
     uint o = i * OUT_STRIDE;

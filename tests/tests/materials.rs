@@ -116,12 +116,15 @@ fn per_vertex_materials_reach_every_technique() {
     let mut base = scene();
     base.lights = vec![SphereLight { center: Vec3::new(0.3, 1.6, -1.4), radius: 0.3, radiance: Vec3::splat(8.0) }];
     let phong = |mut m: Material, c: [f32; 3], e: f32, ks: f32| {
-        m.brdf = Brdf::Lafortune { c, e };
+        m.brdf = Brdf::lafortune(c, e);
         m.specular = Vec3::splat(ks);
         m
     };
     let a = phong(base.materials[0], engine::scene::PHONG_C, 10.0, 0.3);
-    let b = phong(Material::diffuse(Vec3::splat(0.1)), [-1.0, -1.0, 0.7], 200.0, 0.8);
+    // b holds three Lafortune lobes (Eq. 28's sum).
+    let mut b = Material::diffuse(Vec3::splat(0.1));
+    b.apply_brdf_spec("lafortune:cx=-1,cy=-1,cz=0.7,e=200,ks=0.8,w1=0.5,e1=8,w2=0.3,cx2=0.9,cy2=0.9,cz2=0.9,e2=20")
+        .unwrap();
     // Materials: 0 = a, 1 = b, 2 = the ball; the plane's vertices right of x = 0 take offset 1.
     let ball = base.materials[1];
     let mut mixed = base.clone();

@@ -2,7 +2,7 @@
 //! shaders-glsl/tests/brdf_twin.comp (layout documented there): the exact specular BRDF, the
 //! sampling density over light directions, the tangent, and the SG lobes per point, for random
 //! materials of the four models (exponents up to 1e4, α down to 0.02; Lafortune with random C, Phong
-//! among them) and random geometry including grazing
+//! among them, half of the others with three lobes) and random geometry including grazing
 //! views. The CPU twin sees exactly the f32 inputs (the material as uploaded).
 //!
 //! Tolerances: the BRDFs are exp of an argument E up to the model's sharpness (s, n_u, n_v or
@@ -18,11 +18,11 @@ use engine::math::brdf::{self, HalfVectorFit, SpecularModel};
 use engine::math::rng::Pcg32;
 use engine::math::sg::Ndf;
 use engine::resources::layout::GpuMaterial;
-use engine::scene::{Brdf, Material};
+use engine::scene::{Brdf, LafortuneLobe, Material};
 use glam::Vec3;
 use twin::*;
 
-const IN: usize = 29;
+const IN: usize = 37;
 const OUT: usize = 56;
 
 struct Case {
@@ -58,8 +58,17 @@ fn random_material(rng: &mut Pcg32, c: usize) -> (Material, f64) {
             } else {
                 [-rng.uniform(0.3, 1.0) as f32, -rng.uniform(0.3, 1.0) as f32, rng.uniform(-1.0, 1.0) as f32]
             };
-            m.brdf = Brdf::Lafortune { c, e };
-            e as f64
+            // Every other non-Phong Lafortune material holds three lobes (random C, e, weights).
+            let mut more = [LafortuneLobe::default(); 2];
+            if c[0] != -1.0 && rng.uniform(0.0, 1.0) < 0.5 {
+                for lobe in &mut more {
+                    let c =
+                        [rng.uniform(-1.0, 1.0) as f32, rng.uniform(-1.0, 1.0) as f32, rng.uniform(-1.0, 1.0) as f32];
+                    *lobe = LafortuneLobe { c, e: log_uniform(rng, 1.0, 1e3) as f32, w: rng.uniform(0.05, 2.0) as f32 };
+                }
+            }
+            m.brdf = Brdf::Lafortune { c, e, more };
+            more.iter().fold(e, |a, l| a.max(l.e)) as f64
         }
         _ => {
             let (nu, nv) = (log_uniform(rng, 1.0, 1e4) as f32, log_uniform(rng, 1.0, 1e4) as f32);

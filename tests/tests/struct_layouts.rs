@@ -32,7 +32,7 @@ fn host_structs() -> Vec<HostLayout> {
         layout_check!(GpuVertex, "skin/skin.comp", struct "Vertex", [position, instance, normal, material]),
         layout_check!(GpuObject, "skin/skin.comp", struct "Object", [model, normal_matrix]),
         layout_check!(GpuMaterial, "shade/none/pixel.comp", struct "Material", [
-            diffuse, kind, specular, shininess, brdf, lobes, tangent, lobes_along_b
+            diffuse, kind, specular, shininess, brdf, lobes, tangent, lobes_along_b, more
         ]),
         layout_check!(FrameData, "shade/none/pixel.comp", struct "FrameData", [
             eye, pad0, right, tan_half_fov_x, up, tan_half_fov_y, forward, near, far, exposure, pad1, pad2,
@@ -171,9 +171,10 @@ fn a_wrong_component_type_is_caught() {
         lobes: [f32; 4],
         tangent: [f32; 3],
         lobes_along_b: f32,
+        more: [[f32; 4]; 2],
     }
     let host = layout_check!(IntKind, "shade/none/pixel.comp", struct "Material", [
-        diffuse, kind, specular, shininess, brdf, lobes, tangent, lobes_along_b
+        diffuse, kind, specular, shininess, brdf, lobes, tangent, lobes_along_b, more
     ]);
     let err = check(&compiler(), &host).unwrap_err();
     assert!(err.contains("IntKind.kind") && err.contains("component type"), "{err}");

@@ -57,8 +57,52 @@ pub enum SpecularModel {
     CookTorrance { ndf: Ndf, alpha: f64 },
     /// Ashikhmin–Shirley with exponents n_u (along the tangent t) and n_v (along b = n × t).
     AshikhminShirley { nu: f64, nv: f64 },
-    /// One Lafortune lobe C = (C_x, C_y, C_z) in the frame (t, b, n), exponent e (Phong: C = (−1, −1, 1)).
-    Lafortune { c: Vec3, e: f64 },
+    /// Lafortune lobes (Eq. 28's sum): lobe 0 with C = (C_x, C_y, C_z) in the frame (t, b, n) and exponent e
+    /// (Phong: C = (−1, −1, 1)), weight 1; `more` the further lobes (w = 0: absent).
+    Lafortune { c: Vec3, e: f64, more: [LafortuneTerm; LAFORTUNE_MORE] },
+}
+
+/// How many lobes a Lafortune material holds beyond its first.
+pub const LAFORTUNE_MORE: usize = 2;
+
+/// One lobe of a Lafortune material: C, e and its weight w relative to k_s (ρ_i = w k_s; lobe 0 has
+/// w = 1, a further lobe with w = 0 is absent).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LafortuneTerm {
+    pub c: Vec3,
+    pub e: f64,
+    pub w: f64,
+}
+
+impl SpecularModel {
+    /// One Lafortune lobe (no further lobes).
+    pub fn lafortune(c: Vec3, e: f64) -> Self {
+        Self::Lafortune { c, e, more: [LafortuneTerm::default(); LAFORTUNE_MORE] }
+    }
+
+    /// A Lafortune model's present lobes, lobe 0 (w = 1) first; empty for the other models.
+    pub fn lafortune_terms(&self) -> Vec<LafortuneTerm> {
+        match *self {
+            Self::Lafortune { c, e, more } => {
+                std::iter::once(LafortuneTerm { c, e, w: 1.0 }).chain(more.into_iter().filter(|t| t.w > 0.0)).collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// The probabilities with which the reference picks each Lafortune lobe to sample from v: ∝ w_i g_i^e_i
+/// (e_i+2)/(e_i+1), the lobe's albedo before the horizon clips it; uniform where all vanish. Twin of
+/// `brdf_lafortune_pick`.
+pub fn lafortune_pick(terms: &[LafortuneTerm], n: Vec3, t: Vec3, v: Vec3) -> Vec<f64> {
+    let q: Vec<f64> =
+        terms.iter().map(|l| l.w * lafortune_lobe(l.c, l.e, n, t, v).1 * (l.e + 2.0) / (l.e + 1.0)).collect();
+    let sum: f64 = q.iter().sum();
+    if sum > 0.0 {
+        q.iter().map(|x| x / sum).collect()
+    } else {
+        vec![1.0 / terms.len() as f64; terms.len()]
+    }
 }
 
 /// The modified Phong model's normalization (e+2)/(2π), also Lafortune's here.
@@ -232,10 +276,16 @@ pub fn specular_brdf(model: &SpecularModel, ks: [f64; 3], n: Vec3, t: Vec3, v: V
             let c = ((nu + 1.0) * (nvx + 1.0)).sqrt() / (8.0 * PI);
             schlick(ks, vh).map(|f| c * p * f / (vh * nl.max(nv)).max(1e-12))
         }
-        SpecularModel::Lafortune { c, e } => {
-            let (d, peak) = lafortune_lobe(c, e, n, t, v);
-            let x = peak * pow_pos(dot(d, l), e);
-            ks.map(|k| k * lafortune_norm(e) * x)
+        SpecularModel::Lafortune { .. } => {
+            let x: f64 = model
+                .lafortune_terms()
+                .iter()
+                .map(|lobe| {
+                    let (d, peak) = lafortune_lobe(lobe.c, lobe.e, n, t, v);
+                    lobe.w * lafortune_norm(lobe.e) * peak * pow_pos(dot(d, l), lobe.e)
+                })
+                .sum();
+            ks.map(|k| k * x)
         }
     }
 }
@@ -263,11 +313,20 @@ pub fn half_pdf(model: &SpecularModel, n: Vec3, t: Vec3, h: Vec3) -> f64 {
 
 /// Density over light directions l (per solid angle) of the reference's specular sampling, twin of
 /// `brdf_dir_pdf`: the half-vector models' [`half_pdf`] / (4 v·h) (the reflection's Jacobian; 0 where
-/// n·h ≤ 0 or v·h ≤ 0); Lafortune `(e+1)/(2π) max(d·l, 0)^e` about its axis d ([`lafortune_lobe`]).
+/// n·h ≤ 0 or v·h ≤ 0); Lafortune the mixture `Σ_i p_i (e_i+1)/(2π) max(d_i·l, 0)^e_i` about the lobes'
+/// axes d_i ([`lafortune_lobe`]) with the pick probabilities p_i of [`lafortune_pick`].
 pub fn dir_pdf(model: &SpecularModel, n: Vec3, t: Vec3, v: Vec3, l: Vec3) -> f64 {
-    if let SpecularModel::Lafortune { c, e } = *model {
-        let (d, _) = lafortune_lobe(c, e, n, t, v);
-        return (e + 1.0) / (2.0 * PI) * pow_pos(dot(d, l), e);
+    if let SpecularModel::Lafortune { .. } = *model {
+        let terms = model.lafortune_terms();
+        let pick = lafortune_pick(&terms, n, t, v);
+        return terms
+            .iter()
+            .zip(pick)
+            .map(|(lobe, p)| {
+                let (d, _) = lafortune_lobe(lobe.c, lobe.e, n, t, v);
+                p * (lobe.e + 1.0) / (2.0 * PI) * pow_pos(dot(d, l), lobe.e)
+            })
+            .sum();
     }
     let hv = [v[0] + l[0], v[1] + l[1], v[2] + l[2]];
     let len = dot(hv, hv).sqrt();
@@ -359,11 +418,15 @@ pub fn specular_lobes(
                 })
                 .collect()
         }
-        SpecularModel::Lafortune { c, e } => {
-            let (d, peak) = lafortune_lobe(c, e, n, t, v);
-            let w = lafortune_norm(e) * peak * dot(n, d).max(0.0);
-            vec![SpecularLobe { axis: d, lambda: e + 1.0, weight: ks.map(|k| k * w) }]
-        }
+        SpecularModel::Lafortune { .. } => model
+            .lafortune_terms()
+            .iter()
+            .map(|lobe| {
+                let (d, peak) = lafortune_lobe(lobe.c, lobe.e, n, t, v);
+                let w = lobe.w * lafortune_norm(lobe.e) * peak * dot(n, d).max(0.0);
+                SpecularLobe { axis: d, lambda: lobe.e + 1.0, weight: ks.map(|k| k * w) }
+            })
+            .collect(),
     }
 }
 
@@ -402,9 +465,21 @@ mod tests {
             SpecularModel::CookTorrance { ndf: Ndf::Beckmann, alpha: 0.2 },
             SpecularModel::CookTorrance { ndf: Ndf::Ggx, alpha: 0.2 },
             SpecularModel::AshikhminShirley { nu: 200.0, nv: 20.0 },
-            SpecularModel::Lafortune { c: PHONG, e: 100.0 },
-            SpecularModel::Lafortune { c: [-0.95, -0.6, 0.9], e: 30.0 },
+            SpecularModel::lafortune(PHONG, 100.0),
+            SpecularModel::lafortune([-0.95, -0.6, 0.9], 30.0),
+            three_lobes(),
         ]
+    }
+    /// Three Lafortune lobes: off-specular anisotropic, a broad forward one and a retro-reflective one.
+    fn three_lobes() -> SpecularModel {
+        SpecularModel::Lafortune {
+            c: [-0.95, -0.6, 0.9],
+            e: 30.0,
+            more: [
+                LafortuneTerm { c: [-0.9, -0.9, 0.6], e: 8.0, w: 0.3 },
+                LafortuneTerm { c: [0.8, 0.7, 0.8], e: 20.0, w: 0.5 },
+            ],
+        }
     }
     const PHONG: Vec3 = [-1.0, -1.0, 1.0];
 
@@ -426,7 +501,7 @@ mod tests {
             assert!(a > low && a < 1.02, "{m:?}: albedo {a}");
         }
         // Modified Phong at normal incidence: exactly 1 (measured within the quadrature's error).
-        let a = albedo(&SpecularModel::Lafortune { c: PHONG, e: 100.0 }, 1.0, v);
+        let a = albedo(&SpecularModel::lafortune(PHONG, 100.0), 1.0, v);
         assert!((a - 1.0).abs() < 1e-3, "phong albedo {a}");
     }
 
@@ -475,9 +550,39 @@ mod tests {
             }
             let r = madd(scale(n, 2.0 * dot(n, v)), -1.0, v);
             let want = 0.5 * lafortune_norm(40.0) * dot(r, l).max(0.0).powf(40.0);
-            let got = specular_brdf(&SpecularModel::Lafortune { c: PHONG, e: 40.0 }, [0.5; 3], n, t, v, l)[0];
+            let got = specular_brdf(&SpecularModel::lafortune(PHONG, 40.0), [0.5; 3], n, t, v, l)[0];
             assert!((got - want).abs() <= 1e-9 * want.max(1e-300), "{got} {want}");
         }
+    }
+
+    /// Several Lafortune lobes are the w-weighted sum of the single lobes (BRDF and SG lobes), and the
+    /// pick probabilities sum to 1.
+    #[test]
+    fn lafortune_lobes_sum() {
+        let m = three_lobes();
+        let terms = m.lafortune_terms();
+        assert_eq!(terms.len(), 3);
+        let mut rng = Pcg32::new(3, 8);
+        let (n, t) = ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+        for _ in 0..50 {
+            let (mut v, mut l) = (rng.unit_vector(), rng.unit_vector());
+            v[2] = v[2].abs();
+            l[2] = l[2].abs();
+            let want: f64 = terms
+                .iter()
+                .map(|x| x.w * specular_brdf(&SpecularModel::lafortune(x.c, x.e), [0.5; 3], n, t, v, l)[0])
+                .sum();
+            let got = specular_brdf(&m, [0.5; 3], n, t, v, l)[0];
+            assert!((got - want).abs() <= 1e-12 * want.max(1e-300), "{got} {want}");
+            let p = lafortune_pick(&terms, n, t, v);
+            assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-12 && p.iter().all(|&x| x >= 0.0), "{p:?}");
+            let lobes = specular_lobes(&m, &HalfVectorFit::new(&m), [0.5; 3], n, t, v);
+            assert_eq!(lobes.len(), 3);
+        }
+        // An absent lobe (w = 0) is not a lobe.
+        let SpecularModel::Lafortune { c, e, mut more } = m else { unreachable!() };
+        more[1].w = 0.0;
+        assert_eq!(SpecularModel::Lafortune { c, e, more }.lafortune_terms().len(), 2);
     }
 
     #[test]

@@ -25,7 +25,8 @@ pub struct GpuObject {
 /// `struct Material` (see scene.glsl). `brdf` holds the parameters of the model `kind` names:
 /// Cook-Torrance (α, λ_h, μ, 0), Ashikhmin–Shirley (n_u, n_v, λ_h, δ) or Lafortune (C_x, C_y, C_z, e),
 /// zero for Blinn-Phong; `lobes`
-/// = the Ashikhmin–Shirley amplitudes μ_{|k|}, k = 0..3 (indexed by k). The SG fits (λ_h, μ, δ) are
+/// = the per-lobe amplitudes: Ashikhmin–Shirley μ_{|k|}, k = 0..3 (indexed by k), Lafortune's weights
+/// (1, w_1, w_2, 0) of its lobes, whose further (C, e) are `more` (zero elsewhere). The SG fits (λ_h, μ, δ) are
 /// computed here once per material (`engine::math::brdf::HalfVectorFit`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -44,6 +45,8 @@ pub struct GpuMaterial {
     pub tangent: [f32; 3],
     /// 1 when the Ashikhmin–Shirley lobes lie along b, 0 along t.
     pub lobes_along_b: f32,
+    /// Lafortune: (C_x, C_y, C_z, e) of lobes 1 and 2 (their weights in `lobes`).
+    pub more: [[f32; 4]; 2],
 }
 
 /// BRDF kinds in [`GpuMaterial::kind`] (exact small integers in f32).
@@ -66,7 +69,15 @@ impl GpuMaterial {
             Brdf::AshikhminShirley { nu, nv } => {
                 (BRDF_ASHIKHMIN_SHIRLEY, [nu, nv, fit.lambda_h as f32, fit.delta as f32])
             }
-            Brdf::Lafortune { c, e } => (BRDF_LAFORTUNE, [c[0], c[1], c[2], e]),
+            Brdf::Lafortune { c, e, .. } => (BRDF_LAFORTUNE, [c[0], c[1], c[2], e]),
+        };
+        let (lobes, more) = match m.brdf {
+            Brdf::BlinnPhong => ([0.0; 4], [[0.0; 4]; 2]),
+            Brdf::Lafortune { more, .. } => (
+                [1.0, more[0].w, more[1].w, 0.0],
+                more.map(|l| if l.w > 0.0 { [l.c[0], l.c[1], l.c[2], l.e] } else { [0.0; 4] }),
+            ),
+            _ => (fit.mu.map(|x| x as f32), [[0.0; 4]; 2]),
         };
         let t = m.tangent;
         Self {
@@ -75,9 +86,10 @@ impl GpuMaterial {
             specular: m.specular.to_array(),
             shininess: m.shininess,
             brdf,
-            lobes: if m.brdf == Brdf::BlinnPhong { [0.0; 4] } else { fit.mu.map(|x| x as f32) },
+            lobes,
             tangent: t.to_array(),
             lobes_along_b: if fit.wide_is_b { 1.0 } else { 0.0 },
+            more,
         }
     }
 }

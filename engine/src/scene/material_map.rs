@@ -17,7 +17,7 @@
 //! takes a triangle's first vertex's level (the material index is flat), so the map is resolved at the mesh's
 //! vertex spacing: tessellate finely (the ground's `subdivisions`).
 
-use super::{Brdf, Material, Mesh, SceneError};
+use super::{Brdf, LafortuneLobe, Material, Mesh, SceneError};
 use glam::Vec3;
 use std::path::Path;
 
@@ -65,19 +65,31 @@ impl MaterialMap {
 
 /// The blend of Lafortune material `a` (t = 0) into `b` (t = 1) (see the module doc).
 pub fn blend_lafortune(a: &Material, b: &Material, t: f32) -> Result<Material, String> {
-    let (Brdf::Lafortune { c: ca, e: ea }, Brdf::Lafortune { c: cb, e: eb }) = (a.brdf, b.brdf) else {
+    let (Brdf::Lafortune { c: ca, e: ea, more: ma }, Brdf::Lafortune { c: cb, e: eb, more: mb }) = (a.brdf, b.brdf)
+    else {
         return Err("a material map blends two Lafortune materials (brdf = \"lafortune:…\" or \"phong:…\")".into());
     };
     if !(ea > 0.0 && eb > 0.0 && ea.is_finite() && eb.is_finite()) {
         return Err(format!("the exponents must be finite and > 0 (e = {ea}, {eb})"));
     }
     let t = t.clamp(0.0, 1.0);
-    let c = std::array::from_fn(|k| ca[k] + t * (cb[k] - ca[k]));
-    let e = ea.powf(1.0 - t) * eb.powf(t);
+    let blend_c = |ca: [f32; 3], cb: [f32; 3]| std::array::from_fn(|k| ca[k] + t * (cb[k] - ca[k]));
+    let blend_e = |ea: f32, eb: f32| ea.powf(1.0 - t) * eb.powf(t);
+    // Further lobes: blended where both hold them; one only the other lacks fades in or out by its weight.
+    let more = std::array::from_fn(|i| {
+        let (la, lb) = (ma[i], mb[i]);
+        let w = la.w + t * (lb.w - la.w);
+        match (la.w > 0.0, lb.w > 0.0) {
+            (true, true) => LafortuneLobe { c: blend_c(la.c, lb.c), e: blend_e(la.e, lb.e), w },
+            (true, false) => LafortuneLobe { w, ..la },
+            (false, true) => LafortuneLobe { w, ..lb },
+            (false, false) => LafortuneLobe::default(),
+        }
+    });
     Ok(Material {
         diffuse: a.diffuse.lerp(b.diffuse, t),
         specular: a.specular.lerp(b.specular, t),
-        brdf: Brdf::Lafortune { c, e },
+        brdf: Brdf::Lafortune { c: blend_c(ca, cb), e: blend_e(ea, eb), more },
         ..*a
     })
 }
@@ -123,7 +135,7 @@ mod tests {
     use super::*;
 
     fn lafortune(c: [f32; 3], e: f32, ks: f32) -> Material {
-        Material { brdf: Brdf::Lafortune { c, e }, ..Material::glossy(Vec3::splat(0.2), ks, 1.0) }
+        Material { brdf: Brdf::lafortune(c, e), ..Material::glossy(Vec3::splat(0.2), ks, 1.0) }
     }
 
     #[test]
@@ -181,13 +193,24 @@ mod tests {
     fn the_blend_is_linear_in_c_and_geometric_in_e() {
         let (a, b) = (lafortune([-1.0, -1.0, 1.0], 10.0, 0.2), lafortune([-0.2, -1.0, 0.6], 1000.0, 0.6));
         let m = blend_lafortune(&a, &b, 0.5).unwrap();
-        let Brdf::Lafortune { c, e } = m.brdf else { panic!() };
+        let Brdf::Lafortune { c, e, .. } = m.brdf else { panic!() };
         assert!((e - 100.0).abs() < 1e-3, "{e}");
         assert!(c.iter().zip([-0.6, -1.0, 0.8]).all(|(x, y)| (x - y).abs() < 1e-6), "{c:?}");
         assert!((m.specular - Vec3::splat(0.4)).abs().max_element() < 1e-6);
         assert_eq!(blend_lafortune(&a, &b, 0.0).unwrap(), a);
         let e = blend_lafortune(&Material::glossy(Vec3::ONE, 0.5, 50.0), &b, 0.5).unwrap_err();
         assert!(e.contains("Lafortune"), "{e}");
+        // Further lobes: blended where both hold them, faded by their weight where one does.
+        let with = |m: &Material, more: [LafortuneLobe; 2]| {
+            let Brdf::Lafortune { c, e, .. } = m.brdf else { panic!() };
+            Material { brdf: Brdf::Lafortune { c, e, more }, ..*m }
+        };
+        let lobe = |e: f32, w: f32| LafortuneLobe { c: [-0.5, -0.5, 0.5], e, w };
+        let a = with(&a, [lobe(4.0, 0.2), LafortuneLobe::default()]);
+        let b = with(&b, [lobe(16.0, 0.4), lobe(9.0, 0.8)]);
+        let Brdf::Lafortune { more, .. } = blend_lafortune(&a, &b, 0.5).unwrap().brdf else { panic!() };
+        assert!((more[0].e - 8.0).abs() < 1e-4 && (more[0].w - 0.3).abs() < 1e-6, "{more:?}");
+        assert!(more[1].e == 9.0 && (more[1].w - 0.4).abs() < 1e-6, "{more:?}");
     }
 
     #[test]
@@ -210,7 +233,7 @@ mod tests {
         assert_eq!(mesh.material_offsets, vec![0, 2, 4]);
         let palette = mapping.palette(&lafortune([-1.0, -1.0, 1.0], 1.0, 0.1)).unwrap();
         assert_eq!(palette.len(), 5);
-        assert_eq!(palette[4].brdf, Brdf::Lafortune { c: [-1.0, -1.0, 1.0], e: 100.0 });
+        assert_eq!(palette[4].brdf, Brdf::lafortune([-1.0, -1.0, 1.0], 100.0));
         assert!(MaterialMapping { levels: 1, ..mapping.clone() }.palette(&palette[0]).is_err());
         assert!(MaterialMapping { levels: 257, ..mapping }.palette(&palette[0]).is_err());
     }

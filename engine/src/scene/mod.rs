@@ -72,8 +72,27 @@ pub enum Brdf {
     AshikhminShirley { nu: f32, nv: f32 },
     /// One Lafortune lobe `k_s (e+2)/(2π) max(C_x l_t v_t + C_y l_b v_b + C_z l_n v_n, 0)^e` in the
     /// frame of [`Material::tangent`] (|C_i| ≤ 1); C = (−1, −1, 1) is the modified Phong model
-    /// (`--brdf phong`). Cosine-lobes paper Eq. 24–30; `engine::math::brdf`.
-    Lafortune { c: [f32; 3], e: f32 },
+    /// (`--brdf phong`). Cosine-lobes paper Eq. 24–30; `engine::math::brdf`. `more`: Eq. 28's further
+    /// lobes, each `w k_s (e+2)/(2π) max(…, 0)^e` with its own C and e (w = 0: absent).
+    Lafortune { c: [f32; 3], e: f32, more: [LafortuneLobe; LAFORTUNE_MORE] },
+}
+
+pub use engine_math::brdf::LAFORTUNE_MORE;
+
+/// A further lobe of a [`Brdf::Lafortune`] material: C, e and its weight w relative to k_s
+/// (ρ_i = w k_s, so k_s = 0 still means "no specular layer"); w = 0: absent.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LafortuneLobe {
+    pub c: [f32; 3],
+    pub e: f32,
+    pub w: f32,
+}
+
+impl Brdf {
+    /// One Lafortune lobe.
+    pub const fn lafortune(c: [f32; 3], e: f32) -> Self {
+        Brdf::Lafortune { c, e, more: [LafortuneLobe { c: [0.0; 3], e: 0.0, w: 0.0 }; LAFORTUNE_MORE] }
+    }
 }
 
 /// Lafortune's C for the modified Phong model (the mirror direction).
@@ -108,7 +127,15 @@ impl Material {
             Brdf::BlinnPhong => M::BlinnPhong { s: self.shininess as f64 },
             Brdf::CookTorrance { ndf, roughness } => M::CookTorrance { ndf, alpha: roughness as f64 },
             Brdf::AshikhminShirley { nu, nv } => M::AshikhminShirley { nu: nu as f64, nv: nv as f64 },
-            Brdf::Lafortune { c, e } => M::Lafortune { c: c.map(|x| x as f64), e: e as f64 },
+            Brdf::Lafortune { c, e, more } => M::Lafortune {
+                c: c.map(|x| x as f64),
+                e: e as f64,
+                more: more.map(|l| engine_math::brdf::LafortuneTerm {
+                    c: l.c.map(|x| x as f64),
+                    e: l.e as f64,
+                    w: l.w as f64,
+                }),
+            },
         }
     }
 
@@ -137,12 +164,12 @@ impl Material {
                 _ => Brdf::AshikhminShirley { nu: 100.0, nv: 100.0 },
             },
             "phong" => match self.brdf {
-                Brdf::Lafortune { e, .. } => Brdf::Lafortune { c: PHONG_C, e },
-                _ => Brdf::Lafortune { c: PHONG_C, e: 100.0 },
+                Brdf::Lafortune { e, .. } => Brdf::lafortune(PHONG_C, e),
+                _ => Brdf::lafortune(PHONG_C, 100.0),
             },
             "lafortune" => match self.brdf {
                 b @ Brdf::Lafortune { .. } => b,
-                _ => Brdf::Lafortune { c: PHONG_C, e: 100.0 },
+                _ => Brdf::lafortune(PHONG_C, 100.0),
             },
             _ => Brdf::BlinnPhong,
         };
@@ -176,7 +203,7 @@ impl Material {
                     m.tangent = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize();
                 }
             }
-            Brdf::Lafortune { c, e } => {
+            Brdf::Lafortune { c, e, more } => {
                 for (k, key) in ["cx", "cy", "cz"].iter().enumerate() {
                     if let Some(x) = num(key) {
                         c[k] = x;
@@ -184,6 +211,41 @@ impl Material {
                 }
                 if let Some(x) = num("e") {
                     *e = x;
+                }
+                // Further lobes i = 1, 2: keys cx1 … e1, w1; a lobe that was absent starts as Phong with
+                // lobe 0's exponent.
+                for (i, lobe) in more.iter_mut().enumerate() {
+                    let key = |k: &str| format!("{k}{}", i + 1);
+                    let given: Vec<String> =
+                        ["cx", "cy", "cz", "e", "w"].iter().map(|k| key(k)).filter(|k| o.get(k).is_some()).collect();
+                    if given.is_empty() {
+                        continue;
+                    }
+                    if lobe.w <= 0.0 {
+                        *lobe = LafortuneLobe { c: PHONG_C, e: *e, w: 0.0 };
+                    }
+                    for (k, name) in ["cx", "cy", "cz"].iter().enumerate() {
+                        if let Some(x) = num(&key(name)) {
+                            lobe.c[k] = x;
+                        }
+                    }
+                    if let Some(x) = num(&key("e")) {
+                        lobe.e = x;
+                    }
+                    if let Some(x) = num(&key("w")) {
+                        lobe.w = x;
+                    }
+                    if lobe.w <= 0.0 && given.iter().any(|k| !k.starts_with('w')) {
+                        return Err(format!(
+                            "--brdf '{spec}': {} set lobe {} but its weight {} is 0 (the lobe is absent)",
+                            given.join(", "),
+                            i + 1,
+                            key("w")
+                        ));
+                    }
+                    if lobe.w <= 0.0 {
+                        *lobe = LafortuneLobe::default();
+                    }
                 }
                 if let Some(Value::Direction(d)) = o.get("tangent") {
                     m.tangent = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32).normalize();
@@ -259,24 +321,32 @@ pub const BRDF_MODELS: &[(&str, &str, &[OptionSpec])] = &[
     ("phong", "modified Phong, k_s (e+2)/(2π) max(r·l, 0)^e (Lafortune with C = (−1, −1, 1))", &[KS, KD, EXPONENT]),
     (
         "lafortune",
-        "one Lafortune lobe k_s (e+2)/(2π) max(C_x l_t v_t + C_y l_b v_b + C_z l_n v_n, 0)^e",
+        "Lafortune lobes k_s Σ_i w_i (e_i+2)/(2π) max(C_x l_t v_t + C_y l_b v_b + C_z l_n v_n, 0)^e_i: lobe 0 \
+         (cx, cy, cz, e; w_0 = 1) and up to two more (cx1 … e1, w1; cx2 … e2, w2)",
         &[
             KS,
             KD,
             EXPONENT,
-            OptionSpec { key: "cx", aliases: &[], kind: Kind::closed(-1.0, 1.0), default: None, help: "C_x (along t)" },
-            OptionSpec {
-                key: "cy",
-                aliases: &[],
-                kind: Kind::closed(-1.0, 1.0),
-                default: None,
-                help: "C_y (along n × t)",
-            },
-            OptionSpec { key: "cz", aliases: &[], kind: Kind::closed(-1.0, 1.0), default: None, help: "C_z (along n)" },
+            spec_key("cx", Kind::closed(-1.0, 1.0), "C_x (along t)"),
+            spec_key("cy", Kind::closed(-1.0, 1.0), "C_y (along n × t)"),
+            spec_key("cz", Kind::closed(-1.0, 1.0), "C_z (along n)"),
             TANGENT,
+            spec_key("w1", Kind::closed(0.0, 100.0), "weight of lobe 1 relative to k_s (0: no lobe 1)"),
+            spec_key("cx1", Kind::closed(-1.0, 1.0), "C_x of lobe 1 (a new lobe starts as Phong)"),
+            spec_key("cy1", Kind::closed(-1.0, 1.0), "C_y of lobe 1"),
+            spec_key("cz1", Kind::closed(-1.0, 1.0), "C_z of lobe 1"),
+            spec_key("e1", Kind::closed(1e-3, 1e6), "exponent of lobe 1 (a new lobe starts with e)"),
+            spec_key("w2", Kind::closed(0.0, 100.0), "weight of lobe 2 relative to k_s (0: no lobe 2)"),
+            spec_key("cx2", Kind::closed(-1.0, 1.0), "C_x of lobe 2"),
+            spec_key("cy2", Kind::closed(-1.0, 1.0), "C_y of lobe 2"),
+            spec_key("cz2", Kind::closed(-1.0, 1.0), "C_z of lobe 2"),
+            spec_key("e2", Kind::closed(1e-3, 1e6), "exponent of lobe 2"),
         ],
     ),
 ];
+const fn spec_key(key: &'static str, kind: Kind, help: &'static str) -> OptionSpec {
+    OptionSpec { key, aliases: &[], kind, default: None, help }
+}
 const TANGENT: OptionSpec = OptionSpec {
     key: "tangent",
     aliases: &[],
@@ -379,11 +449,20 @@ mod tests {
         assert_eq!(m.brdf, Brdf::AshikhminShirley { nu: 1000.0, nv: 100.0 });
         assert_eq!((m.specular, m.tangent), (Vec3::splat(0.25), Vec3::X));
         m.apply_brdf_spec("phong:e=50").unwrap();
-        assert_eq!(m.brdf, Brdf::Lafortune { c: PHONG_C, e: 50.0 });
+        assert_eq!(m.brdf, Brdf::lafortune(PHONG_C, 50.0));
         m.apply_brdf_spec("lafortune:cx=-0.9,cz=0.5").unwrap();
-        assert_eq!(m.brdf, Brdf::Lafortune { c: [-0.9, -1.0, 0.5], e: 50.0 }, "keys not given are kept");
+        assert_eq!(m.brdf, Brdf::lafortune([-0.9, -1.0, 0.5], 50.0), "keys not given are kept");
+        // Further lobes: a new one starts as Phong with lobe 0's e; keys not given are kept.
+        m.apply_brdf_spec("lafortune:w1=0.5,cz1=0.8,w2=0.25,e2=8").unwrap();
+        let lobe = |c: [f32; 3], e: f32, w: f32| LafortuneLobe { c, e, w };
+        let want = [lobe([-1.0, -1.0, 0.8], 50.0, 0.5), lobe(PHONG_C, 8.0, 0.25)];
+        assert_eq!(m.brdf, Brdf::Lafortune { c: [-0.9, -1.0, 0.5], e: 50.0, more: want });
+        m.apply_brdf_spec("lafortune:e1=4").unwrap();
+        assert!(matches!(m.brdf, Brdf::Lafortune { more, .. } if more[0].e == 4.0 && more[1] == want[1]));
+        m.apply_brdf_spec("lafortune:w2=0").unwrap();
+        assert!(matches!(m.brdf, Brdf::Lafortune { more, .. } if more[1] == LafortuneLobe::default()), "w = 0 removes");
         m.apply_brdf_spec("phong").unwrap();
-        assert_eq!(m.brdf, Brdf::Lafortune { c: PHONG_C, e: 50.0 }, "phong resets C, keeps e");
+        assert_eq!(m.brdf, Brdf::lafortune(PHONG_C, 50.0), "phong resets C and the further lobes, keeps e");
         for (bad, key) in [
             ("cook-torrance:roughness=2", "roughness"),
             ("cook-torrance:s=10", "s"),
@@ -396,11 +475,17 @@ mod tests {
             ("lafortune:cx=1.5", "cx"),
             ("phong:e=0", "e"),
             ("phong:cx=1", "cx"),
+            ("lafortune:w1=-1", "w1"),
+            ("lafortune:cx2=2", "cx2"),
+            ("phong:w1=1", "w1"),
         ] {
             let before = m;
             let e = m.apply_brdf_spec(bad).unwrap_err();
             assert!(e.contains(&format!("'{key}'")), "{bad}: {e}");
             assert_eq!(m, before, "a failed spec leaves the material unchanged");
         }
+        // A further lobe's keys without its weight: an error naming the weight.
+        let e = m.apply_brdf_spec("lafortune:e2=5").unwrap_err();
+        assert!(e.contains("w2") && e.contains("e2"), "{e}");
     }
 }

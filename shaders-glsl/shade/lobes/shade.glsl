@@ -93,7 +93,7 @@ layout(std430, binding = 21) readonly buffer BlockerPlanes {
 #define LOBES_MAX_BLOCKERS 64
 #define LOBES_MAX_DEPTH 6
 #define LOBES_STACK (3 * LOBES_MAX_DEPTH + 1)
-#define LOBES_MAX_R 2
+#define LOBES_MAX_R (1 + BRDF_LAFORTUNE_LOBES)
 const float LOBES_MASK_MAX_HALF_ANGLE = 1.4;
 // llvmpipe ends every loop of an invocation once 65535 loop iterations have run in it (all loops together,
 // and for the 8 lanes that run together): a deep mask over many blockers (depth 5–6 near a bunny's shadow edge)
@@ -172,34 +172,42 @@ Lobe lobes_mul(Lobe c1, Lobe c2) {
     return o;
 }
 
-// ∫_{n·v > 0} c dω from the hemisphere table (twin of HemisphereTable::hemisphere_integral).
-// The specular term as one cosine lobe (§5.1): Blinn-Phong as the Phong lobe about the mirror
-// direction (e = s/4, scale k_s (s+8)/(8π)); Lafortune (Phong among them) exactly, about
-// d = M v/|M v| with scale k_s (e+2)/(2π) |M v|^e (Eq. 30). False for the other models and k_s = 0.
-// Twin: lobes::cpu::specular_lobe.
-bool lobes_specular_lobe(Material m, vec3 n, vec3 view, out Lobe spec) {
-    spec.axis = n;
-    spec.e = 1.0;
-    spec.s = vec3(0.0);
-    if (!brdf_has_specular(m)) return false;
+// The specular term as cosine lobes (§5.1): Blinn-Phong as the Phong lobe about the mirror direction
+// (e = s/4, scale k_s (s+8)/(8π)); Lafortune (Phong among them) exactly, lobe i about d_i = M_i v/|M_i v|
+// with scale w_i k_s (e_i+2)/(2π) |M_i v|^e_i (Eq. 28-30). Returns their count: 0 for the other models
+// and k_s = 0. Twin: lobes::cpu::specular_lobes.
+int lobes_specular_lobes(Material m, vec3 n, vec3 view, out Lobe spec[LOBES_MAX_R - 1]) {
+    for (int i = 0; i < LOBES_MAX_R - 1; ++i) {
+        spec[i].axis = n;
+        spec[i].e = 1.0;
+        spec[i].s = vec3(0.0);
+    }
+    if (!brdf_has_specular(m)) return 0;
     int kind = brdf_kind(m);
     if (kind == BRDF_BLINN_PHONG) {
         float s = m.shininess;
-        spec.axis = reflect(-view, n);
-        spec.e = 0.25 * s;
-        spec.s = m.specular.rgb * (s + 8.0) / (8.0 * PI);
-        return true;
+        spec[0].axis = reflect(-view, n);
+        spec[0].e = 0.25 * s;
+        spec[0].s = m.specular.rgb * (s + 8.0) / (8.0 * PI);
+        return 1;
     }
-    if (kind == BRDF_LAFORTUNE) {
+    if (kind != BRDF_LAFORTUNE) return 0;
+    vec3 t = brdf_tangent(m, n);
+    int count = 0;
+    for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
+        float w = brdf_lafortune_w(m, i);
+        if (w <= 0.0) continue;
+        vec4 ce = brdf_lafortune_ce(m, i);
         float peak;
-        spec.axis = brdf_lafortune_lobe(m, n, brdf_tangent(m, n), view, peak);
-        spec.e = m.brdf.w;
-        spec.s = m.specular.rgb * (brdf_lafortune_norm(m.brdf.w) * peak);
-        return true;
+        spec[count].axis = brdf_lafortune_lobe(ce, n, t, view, peak);
+        spec[count].e = ce.w;
+        spec[count].s = m.specular.rgb * (w * brdf_lafortune_norm(ce.w) * peak);
+        count += 1;
     }
-    return false;
+    return count;
 }
 
+// ∫_{n·v > 0} c dω from the hemisphere table (twin of HemisphereTable::hemisphere_integral).
 vec3 lobes_hemisphere_integral(Lobe c, vec3 n) {
     float cb = clamp(dot(c.axis, n), -1.0, 1.0);
     int e0, e1, y0, y1;
@@ -578,22 +586,19 @@ vec3 shade_point(ShadePoint sp) {
     vec3 rho = sp.material.diffuse.rgb;
     // Reflectance lobes f_r · cos (§5.1).
     Lobe r[LOBES_MAX_R];
-    int r_count = 1;
     r[0].axis = n;
     r[0].e = 1.0;
     r[0].s = rho / PI;
-    r[1] = r[0];
-    Lobe spec;
-    bool phong = lobes_specular_lobe(sp.material, n, sp.view, spec);
-    if (phong) {
-        Lobe cosine;
-        cosine.axis = n;
-        cosine.e = 1.0;
-        cosine.s = vec3(1.0);
-        r[1] = lobes_mul(spec, cosine);
-        if (light_count > 0u || LOBES_ENV_K > 0) products += 1u;
-        r_count = 2;
+    Lobe spec[LOBES_MAX_R - 1];
+    int spec_count = lobes_specular_lobes(sp.material, n, sp.view, spec);
+    bool phong = spec_count > 0;
+    Lobe cosine = r[0];
+    cosine.s = vec3(1.0);
+    for (int k = 0; k < LOBES_MAX_R - 1; ++k) {
+        r[k + 1] = k < spec_count ? lobes_mul(spec[k], cosine) : r[0];
+        if (k < spec_count && (light_count > 0u || LOBES_ENV_K > 0)) products += 1u;
     }
+    int r_count = 1 + spec_count;
     vec3 e_free = irradiance_lookup(irradiance_map, n);
     vec3 v_planes;
     float v_hs = lobes_env_planes(p, n, e_free, v_planes);
@@ -635,7 +640,7 @@ vec3 shade_point(ShadePoint sp) {
     cos_rl[0].axis = n;
     cos_rl[0].e = 1.0;
     cos_rl[0].s = vec3(1.0);
-    cos_rl[1] = cos_rl[0];
+    for (int k = 1; k < LOBES_MAX_R; ++k) cos_rl[k] = cos_rl[0];
     float u_cos = lobes_hemisphere_integral(cos_rl[0], n).x;
     vec3 s_env = lobes_env_mask(p, n, cos_rl, u_cos, env_hidden, products, pruned, leaves, overflow);
     vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_planes;

@@ -71,10 +71,11 @@ vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
     return f * nl;
 }
 
-// Probability of choosing the specular lobe: k_s against ρ_d (means over RGB).
+// Probability of choosing the specular lobe: k_s (times Σ w_i for Lafortune lobes) against ρ_d (means over RGB).
 float specular_choice(Material m) {
     float kd = dot(m.diffuse.rgb, vec3(1.0 / 3.0));
     float ks = dot(m.specular.rgb, vec3(1.0 / 3.0));
+    if (brdf_kind(m) == BRDF_LAFORTUNE) ks *= m.lobes.x + m.lobes.y + m.lobes.z;
     return ks + kd > 0.0 ? ks / (ks + kd) : 0.0;
 }
 

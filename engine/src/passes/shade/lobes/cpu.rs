@@ -36,42 +36,46 @@ pub struct TwinLight {
 }
 
 /// One receiver: position, unit shading normal, unit direction to the viewer, diffuse albedo and an
-/// optional specular lobe f_s without the cosine ([`specular_lobe`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// specular lobes f_s without the cosine ([`specular_lobes`]; empty: none).
+#[derive(Clone, Debug, PartialEq)]
 pub struct TwinReceiver {
     pub p: DVec3,
     pub n: DVec3,
     pub view: DVec3,
     pub rho: [f64; 3],
-    pub specular: Option<RgbLobe>,
+    pub specular: Vec<RgbLobe>,
 }
 
-/// The specular term as one cosine lobe (§5.1), where the model is one: Blinn-Phong as the Phong lobe
-/// about the mirror direction with e = s/4 and scale k_s (s+8)/(8π); Lafortune (Phong among them)
-/// exactly, its lobe about d = M v/|M v| with e and scale k_s (e+2)/(2π) |M v|^e (Eq. 30). None for
-/// the other models and where k_s = 0. `t` is the unit tangent. Twin of the shader's
-/// `lobes_specular_lobe`.
-pub fn specular_lobe(
+/// The specular term as cosine lobes (§5.1), where the model is made of them: Blinn-Phong as the Phong
+/// lobe about the mirror direction with e = s/4 and scale k_s (s+8)/(8π); Lafortune (Phong among them)
+/// exactly, each lobe i about d_i = M_i v/|M_i v| with e_i and scale w_i k_s (e_i+2)/(2π) |M_i v|^e_i
+/// (Eq. 28–30). Empty for the other models and where k_s = 0. `t` is the unit tangent. Twin of the
+/// shader's `lobes_specular_lobes`.
+pub fn specular_lobes(
     model: &engine_math::brdf::SpecularModel,
     ks: [f64; 3],
     n: DVec3,
     t: DVec3,
     view: DVec3,
-) -> Option<RgbLobe> {
+) -> Vec<RgbLobe> {
     use engine_math::brdf::{lafortune_lobe, lafortune_norm, SpecularModel};
     if ks.iter().all(|&k| k == 0.0) {
-        return None;
+        return Vec::new();
     }
     match *model {
         SpecularModel::BlinnPhong { s } => {
             let mirror = 2.0 * n.dot(view) * n - view;
-            Some(RgbLobe { axis: mirror, e: 0.25 * s, s: ks.map(|k| k * (s + 8.0) / (8.0 * PI)) })
+            vec![RgbLobe { axis: mirror, e: 0.25 * s, s: ks.map(|k| k * (s + 8.0) / (8.0 * PI)) }]
         }
-        SpecularModel::Lafortune { c, e } => {
-            let (d, peak) = lafortune_lobe(c, e, n.to_array(), t.to_array(), view.to_array());
-            Some(RgbLobe { axis: DVec3::from_array(d), e, s: ks.map(|k| k * lafortune_norm(e) * peak) })
-        }
-        _ => None,
+        SpecularModel::Lafortune { .. } => model
+            .lafortune_terms()
+            .iter()
+            .map(|l| {
+                let (d, peak) = lafortune_lobe(l.c, l.e, n.to_array(), t.to_array(), view.to_array());
+                RgbLobe { axis: DVec3::from_array(d), e: l.e, s: ks.map(|k| k * l.w * lafortune_norm(l.e) * peak) }
+            })
+            .collect(),
+        _ => Vec::new(),
     }
 }
 
@@ -326,7 +330,7 @@ impl Twin {
         let reflectance = self.reflectance(r);
         let rl: Vec<RgbLobe> = env.iter().flat_map(|l| reflectance.iter().map(|c| self.mul(c, l))).collect();
         let mut out = LightTerms { outside: true, ..Default::default() };
-        out.products = rl.len() + usize::from(r.specular.is_some());
+        out.products = rl.len() + r.specular.len();
         for c in &rl {
             let v = self.hemisphere_integral(c, r.n);
             (0..3).for_each(|k| out.u[k] += v[k]);
@@ -341,8 +345,8 @@ impl Twin {
     /// The reflectance lobes f_r · cos at the receiver (Lambert; the specular lobe × cosine).
     pub fn reflectance(&self, r: &TwinReceiver) -> Vec<RgbLobe> {
         let mut out = vec![RgbLobe { axis: r.n, e: 1.0, s: r.rho.map(|x| x / PI) }];
-        if let Some(spec) = r.specular {
-            out.push(self.mul(&spec, &Self::cosine(r.n)));
+        for spec in &r.specular {
+            out.push(self.mul(spec, &Self::cosine(r.n)));
         }
         out
     }
@@ -368,7 +372,7 @@ impl Twin {
         let alpha = light.radius.max(0.0).atan2(((dist - light.radius) * (dist + light.radius)).max(0.0).sqrt());
         let light_lobe = self.cap_lobe(axis, alpha, light.radiance, o.energy, o.sharpen);
         let rl: Vec<RgbLobe> = self.reflectance(r).iter().map(|c| self.mul(c, &light_lobe)).collect();
-        out.products = rl.len() + usize::from(r.specular.is_some());
+        out.products = rl.len() + r.specular.len();
         for c in &rl {
             let v = self.hemisphere_integral(c, n);
             (0..3).for_each(|k| out.u[k] += v[k]);

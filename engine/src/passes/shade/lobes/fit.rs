@@ -84,7 +84,7 @@ pub fn rows(options: &LobesOptions, grid: usize, quad: usize) -> Result<Vec<Row>
                 let x = -1.5 + 3.0 * (i as f64 + 0.5) / grid as f64;
                 let z = -1.5 + 3.0 * (j as f64 + 0.5) / grid as f64;
                 let p = DVec3::new(x, 0.0, z);
-                let r = TwinReceiver { p, n: DVec3::Y, view: DVec3::Y, rho: [PI; 3], specular: None };
+                let r = TwinReceiver { p, n: DVec3::Y, view: DVec3::Y, rho: [PI; 3], specular: Vec::new() };
                 let t = twin.light_terms(&r, &light, &bvh, &[]);
                 if !t.outside || t.hidden {
                     continue;
