@@ -1,6 +1,8 @@
 //! `cargo xtask lobes-weights [--check]`: fit the lobes technique's per-depth light leaf weights
 //! (engine::passes::shade::lobes::fit) and write assets/tables/lobes_weights.txt, or check that the stored
-//! table is what the fit gives today.
+//! table is what the fit gives today. `--by-distance` reports what distance-dependent weights w(depth, dist)
+//! (paper Eq. 39) could gain: the calibration rows binned by octaves of the receiver's distance to the light
+//! and to the blocker (in their radii), each bin fitted on its own.
 
 use engine::passes::shade::lobes::fit;
 
@@ -13,16 +15,17 @@ fn main() {
 
 fn run() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    const USAGE: &str = "usage: lobes_weights [--check | --by-distance]   (fit the lobes light leaf weights; --check \
+                         compares with the table; --by-distance reports what distance-dependent weights could gain)";
     let check = match args.as_slice() {
         [] => false,
         [a] if a == "--check" => true,
+        [a] if a == "--by-distance" => return by_distance(),
         [a] if a == "-h" || a == "--help" => {
-            println!(
-                "usage: lobes_weights [--check]   (fit the lobes light leaf weights; --check compares with the table)"
-            );
+            println!("{USAGE}");
             return Ok(());
         }
-        other => return Err(format!("unexpected arguments {other:?} (usage: lobes_weights [--check])")),
+        other => return Err(format!("unexpected arguments {other:?} ({USAGE})")),
     };
     let dir = engine::tables::default_dir();
     eprintln!(
@@ -55,5 +58,26 @@ fn run() -> Result<(), String> {
     std::fs::write(&path, fit::table_text(&w, rows, uniform, fitted))
         .map_err(|e| format!("{}: {e}", path.display()))?;
     println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// The per-depth fit against fits per distance octave (in-sample: an upper bound on the gain).
+fn by_distance() -> Result<(), String> {
+    eprintln!("computing the calibration rows ({} set-ups)...", fit::setups().len());
+    let rows = fit::rows(&engine::passes::shade::lobes::LobesOptions::default(), fit::GRID, fit::QUAD)?;
+    let w = fit::fit(&rows, fit::LAMBDA);
+    println!(
+        "{} receivers: relative RMSE with unit weights {:.3} %, per-depth weights {:.3} %",
+        rows.len(),
+        100.0 * fit::error(&rows, &[1.0; engine::passes::shade::lobes::WEIGHT_DEPTHS]),
+        100.0 * fit::error(&rows, &w)
+    );
+    for (what, key) in [("light", 0), ("blocker", 1)] {
+        let (bins, e) = fit::binned_error(&rows, |r| if key == 0 { r.light_dist } else { r.blocker_dist });
+        println!(
+            "per-depth weights fitted per octave of the distance to the {what} ({bins} octaves): {:.3} %",
+            100.0 * e
+        );
+    }
     Ok(())
 }

@@ -62,12 +62,15 @@ pub fn exact_light(p: DVec3, s: &Setup, k: usize) -> f64 {
     sum * (1.0 - cos_max) * 2.0 * PI / (nc * np) as f64
 }
 
-/// One receiver's row: the twin's U, its S by depth (unit weights), and the exact term.
+/// One receiver's row: the twin's U, its S by depth (unit weights), and the exact term; and the receiver's
+/// distances to the light's and the blocker's centres in their radii (the candidate `dist` of Eq. 39).
 #[derive(Clone, Debug)]
 pub struct Row {
     pub u: f64,
     pub s_by_depth: [f64; WEIGHT_DEPTHS],
     pub exact: f64,
+    pub light_dist: f64,
+    pub blocker_dist: f64,
 }
 
 /// The calibration rows of `options` (its light weights are ignored: unit weights, no pruning) over a
@@ -89,7 +92,13 @@ pub fn rows(options: &LobesOptions, grid: usize, quad: usize) -> Result<Vec<Row>
                 if !t.outside || t.hidden {
                     continue;
                 }
-                out.push(Row { u: t.u[1], s_by_depth: t.s_by_depth, exact: exact_light(p, &s, quad) });
+                out.push(Row {
+                    u: t.u[1],
+                    s_by_depth: t.s_by_depth,
+                    exact: exact_light(p, &s, quad),
+                    light_dist: (s.light_center - p).length() / s.light_radius,
+                    blocker_dist: (s.blocker.center - p).length() / s.blocker.radius,
+                });
             }
         }
     }
@@ -98,6 +107,12 @@ pub fn rows(options: &LobesOptions, grid: usize, quad: usize) -> Result<Vec<Row>
 
 /// Relative RMSE of max(U − Σ_d w_d S_d, 0) against the exact terms.
 pub fn error(rows: &[Row], w: &[f64; WEIGHT_DEPTHS]) -> f64 {
+    let (num, den) = squared_errors(rows, w);
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Σ (max(U − Σ_d w_d S_d, 0) − exact)² and Σ exact².
+fn squared_errors(rows: &[Row], w: &[f64; WEIGHT_DEPTHS]) -> (f64, f64) {
     let (mut num, mut den) = (0.0, 0.0);
     for r in rows {
         let s: f64 = (0..WEIGHT_DEPTHS).map(|d| w[d] * r.s_by_depth[d]).sum();
@@ -105,7 +120,25 @@ pub fn error(rows: &[Row], w: &[f64; WEIGHT_DEPTHS]) -> f64 {
         num += e * e;
         den += r.exact * r.exact;
     }
-    (num / den.max(1e-300)).sqrt()
+    (num, den)
+}
+
+/// What weights w(depth, dist) could gain over per-depth weights: the rows split into octaves of `dist(row)`
+/// (bins [2^k, 2^(k+1))), each bin fitted on its own, and the relative RMSE of all rows with their bin's
+/// weights. Fitted and scored on the same rows, so it bounds from above what a table over those bins would
+/// gain on them. Returns (bins, error).
+pub fn binned_error(rows: &[Row], dist: impl Fn(&Row) -> f64) -> (usize, f64) {
+    let mut bins: std::collections::BTreeMap<i32, Vec<Row>> = Default::default();
+    for r in rows {
+        bins.entry(dist(r).max(1e-9).log2().floor() as i32).or_default().push(r.clone());
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for rows in bins.values() {
+        let (n, d) = squared_errors(rows, &fit(rows, LAMBDA));
+        num += n;
+        den += d;
+    }
+    (bins.len(), (num / den.max(1e-300)).sqrt())
 }
 
 /// Least squares for w (index loops: the normal equations read clearer that way): minimize Σ (U − Σ_d w_d S_d − exact)² + λ Σ_d (w_d − 1)² (λ scaled by the
@@ -254,12 +287,16 @@ mod tests {
             let s = [0.0, 0.0, (x * 0.37).sin().abs(), (x * 0.11).cos().abs(), (x * 0.05).sin().abs() * 0.5, 0.0, 0.0];
             let u = 3.0;
             let exact = u - (0..WEIGHT_DEPTHS).map(|d| truth[d] * s[d]).sum::<f64>();
-            rows.push(Row { u, s_by_depth: s, exact });
+            rows.push(Row { u, s_by_depth: s, exact, light_dist: 1.0, blocker_dist: x });
         }
         let w = fit(&rows, 1e-9);
         for d in 0..WEIGHT_DEPTHS {
             assert!((w[d] - truth[d]).abs() < 1e-5, "{w:?}");
         }
         assert!(error(&rows, &w) < 1e-6);
+        // Binned fits of rows made with one set of weights find them again in every bin (up to the
+        // regularization towards 1; octaves [64, 128), [128, 256), [256, 512)).
+        let (bins, e) = binned_error(&rows, |r| r.blocker_dist + 64.0);
+        assert!(bins == 3 && e < 1e-3, "{bins} {e}");
     }
 }
