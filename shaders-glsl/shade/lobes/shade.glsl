@@ -73,7 +73,9 @@ struct LobesParams {
     uint coarsen;         // on overflow, retries of the cut with take_whole doubled
     float light_weights[8];  // per-depth factors of the light masks' leaf weights (0..6 used)
     uint env_lobe_count;     // env=lobes: lobes in EnvLobes (0 with env=map)
-    uint pad0, pad1, pad2;
+    uint budget;             // work one mask may spend before it stops refining (option budget)
+    uint env_black;          // 1: the environment is black everywhere (its term and mask are skipped)
+    uint pad2;
 };
 layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
@@ -99,8 +101,8 @@ const float LOBES_MASK_MAX_HALF_ANGLE = 1.4;
 // and for the 8 lanes that run together): a deep mask over many blockers (depth 5–6 near a bunny's shadow edge)
 // ran past it and lost its light. So each mask stops refining once it has spent this much work (a visited cell
 // costs 4, each blocker or plane tested 1): later cells are leaves at their depth, as at the maximal depth.
-// Twin: engine::passes::shade::lobes::MASK_WORK_BUDGET.
-const uint LOBES_MASK_WORK_BUDGET = 32768u;
+// The receivers where that happened are counted (lobes_stats[7]) and reported. The budget is lp.budget
+// (option `budget`, default engine::passes::shade::lobes::MASK_WORK_BUDGET).
 
 struct Lobe {
     vec3 axis;
@@ -261,6 +263,7 @@ uint g_blocker_count;
 bool g_overflow;
 vec3 g_axis;
 float g_cos_mask;
+bool g_budget_hit;  // some mask of this receiver stopped refining at its work budget (lp.budget)
 
 void lobes_light_visit(vec4 s) {
     vec4 b;
@@ -333,18 +336,35 @@ void lobes_gather(vec3 p, vec3 n, vec3 axis, float tan_half, uint depth) {
     }
 }
 
+// The bit mask of blockers 0 .. count − 1 (count ≤ 64).
+uvec2 lobes_all_blockers(uint count) {
+    uint lo = count >= 32u ? 0xffffffffu : (1u << count) - 1u;
+    uint hi = count <= 32u ? 0u : (count >= 64u ? 0xffffffffu : (1u << (count - 32u)) - 1u);
+    return uvec2(lo, hi);
+}
+
 // 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit;
-// gamma: the cell's bounding-cone half-angle.
-int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes, inout uint work) {
+// gamma: the cell's bounding-cone half-angle. Only the blockers in `subset` are tested (in index order: those
+// that met the parent cell); on return it holds those that meet this cell (unchanged when one covers it).
+int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes, inout uvec2 subset, inout uint work) {
     bool partial = false;
-    for (uint i = 0u; i < g_blocker_count; ++i) {
-        work += 1u;
-        vec4 b = g_blockers[i];
-        if (lobe_angle_between(b.xyz, centre) >= b.w + gamma) continue;
-        float cb = cos(b.w);
-        if (dot(q[0], b.xyz) >= cb && dot(q[1], b.xyz) >= cb && dot(q[2], b.xyz) >= cb && dot(q[3], b.xyz) >= cb) return 2;
-        partial = true;
+    uvec2 met = uvec2(0u);
+    for (uint half_ = 0u; half_ < 2u; ++half_) {
+        uint bits = half_ == 0u ? subset.x : subset.y;
+        while (bits != 0u) {
+            uint j = uint(findLSB(bits));
+            bits &= bits - 1u;
+            work += 1u;
+            vec4 b = g_blockers[j + 32u * half_];
+            if (lobe_angle_between(b.xyz, centre) >= b.w + gamma) continue;
+            float cb = cos(b.w);
+            if (dot(q[0], b.xyz) >= cb && dot(q[1], b.xyz) >= cb && dot(q[2], b.xyz) >= cb && dot(q[3], b.xyz) >= cb) return 2;
+            partial = true;
+            if (half_ == 0u) met.x |= 1u << j;
+            else met.y |= 1u << j;
+        }
     }
+    subset = met;
     for (uint i = 0u; i < (planes ? plane_count : 0u); ++i) {
         work += 1u;
         BlockerPlane pl = blocker_planes[i];
@@ -391,6 +411,10 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
     vec3 shadow = vec3(0.0);
     hidden = false;
     uint stack[LOBES_STACK];
+    // The blockers that met the last split cell of each depth: in depth-first order a popped cell's parent is
+    // the last cell split one level up, so its children read level_subset[d − 1] (all blockers at the root).
+    uvec2 level_subset[LOBES_MAX_DEPTH + 1];
+    uvec2 all_blockers = lobes_all_blockers(g_blocker_count);
     uint size = 1u;
     stack[0] = 0u;  // (depth, ix, iy) packed as depth | ix << 4 | iy << 16
     uint depth_max = min(depth_req, uint(LOBES_MAX_DEPTH));
@@ -401,6 +425,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         uint d = cell & 15u;
         uint ix = (cell >> 4) & 0xfffu;
         uint iy = cell >> 16;
+        uvec2 subset = d == 0u ? all_blockers : level_subset[d - 1u];
         float h = 1.0 / float(1u << d);  // half side in [-1, 1]^2
         float cx = -1.0 + (2.0 * float(ix) + 1.0) * h;
         float cy = -1.0 + (2.0 * float(iy) + 1.0) * h;
@@ -419,9 +444,11 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         float gamma = 0.0;
         for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
         work += 4u;
-        int state = lobes_cell_state(q, centre, gamma, planes, work);
+        int state = lobes_cell_state(q, centre, gamma, planes, subset, work);
         if (state == 0) continue;
-        bool refine = work < LOBES_MASK_WORK_BUDGET;
+        bool refine = work < lp.budget;
+        // A cell that would have split but the budget stops: counted (lobes_stats[7]).
+        if (!refine && ((state == 2 && d < min(lp.split, depth_max)) || (state == 1 && d < depth_max))) g_budget_hit = true;
         // The whole mask covered: the light is hidden (S = U; the cap lobe's tail past the mask is
         // counted hidden too).
         if (state == 2 && d == 0u) {
@@ -431,6 +458,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         // Covered cells split down to `split` so that their lobes are narrower than the light's:
         // one broad leaf lobe peaks at ~0.6 and leaves its centre lit.
         if (state == 2 && d < min(lp.split, depth_max) && refine) {
+            level_subset[d] = subset;
             for (uint k = 0u; k < 4u; ++k) {
                 stack[size] = (d + 1u) | ((2u * ix + (k & 1u)) << 4) | ((2u * iy + (k >> 1)) << 16);
                 size += 1u;
@@ -439,6 +467,7 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         }
         if (state == 1) {
             if (d < depth_max && refine) {
+                level_subset[d] = subset;
                 for (uint k = 0u; k < 4u; ++k) {
                     uint cix = 2u * ix + (k & 1u);
                     uint ciy = 2u * iy + (k >> 1);
@@ -582,6 +611,7 @@ vec3 shade_point(ShadePoint sp) {
     vec3 n = sp.normal;
     vec3 p = sp.position;
     uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
+    g_budget_hit = false;
 
     vec3 rho = sp.material.diffuse.rgb;
     // Reflectance lobes f_r · cos (§5.1).
@@ -599,59 +629,62 @@ vec3 shade_point(ShadePoint sp) {
         if (k < spec_count && (light_count > 0u || LOBES_ENV_K > 0)) products += 1u;
     }
     int r_count = 1 + spec_count;
-    vec3 e_free = irradiance_lookup(irradiance_map, n);
-    vec3 v_planes;
-    float v_hs = lobes_env_planes(p, n, e_free, v_planes);
-    bool env_hidden;
-    vec3 result;
+    vec3 result = vec3(0.0);
+    // A black environment (the paper's set-ups: lights alone) adds nothing: its mask is skipped.
+    if (lp.env_black == 0u) {
+        vec3 e_free = irradiance_lookup(irradiance_map, n);
+        vec3 v_planes;
+        float v_hs = lobes_env_planes(p, n, e_free, v_planes);
+        bool env_hidden;
 #if LOBES_ENV_K > 0
-    // env=lobes: each environment lobe as the paper takes a light: R × L_k, U_env = Σ ∫_{Ω+} R_r L_k,
-    // S_env through the normal's mask; the environment adds max(U_env − S_env, 0) (light=lobes) or the
-    // shared unshadowed terms × clamp(1 − S_env/U_env, 0, 1) (light=ratio), times the planes' v_hs.
-    vec3 u_env = vec3(0.0);
-    g_env_rl_count = 0;
-    for (uint k = 0u; k < min(lp.env_lobe_count, uint(LOBES_ENV_K)); ++k) {
-        Lobe l;
-        l.axis = env_lobes[k].axis_e.xyz;
-        l.e = env_lobes[k].axis_e.w;
-        l.s = env_lobes[k].scale.rgb;
-        for (int j = 0; j < r_count; ++j) {
-            Lobe rl = lobes_mul(r[j], l);
-            products += 1u;
-            u_env += lobes_hemisphere_integral(rl, n);
-            g_env_rl[g_env_rl_count] = rl;
-            g_env_rl_count += 1;
+        // env=lobes: each environment lobe as the paper takes a light: R × L_k, U_env = Σ ∫_{Ω+} R_r L_k,
+        // S_env through the normal's mask; the environment adds max(U_env − S_env, 0) (light=lobes) or the
+        // shared unshadowed terms × clamp(1 − S_env/U_env, 0, 1) (light=ratio), times the planes' v_hs.
+        vec3 u_env = vec3(0.0);
+        g_env_rl_count = 0;
+        for (uint k = 0u; k < min(lp.env_lobe_count, uint(LOBES_ENV_K)); ++k) {
+            Lobe l;
+            l.axis = env_lobes[k].axis_e.xyz;
+            l.e = env_lobes[k].axis_e.w;
+            l.s = env_lobes[k].scale.rgb;
+            for (int j = 0; j < r_count; ++j) {
+                Lobe rl = lobes_mul(r[j], l);
+                products += 1u;
+                u_env += lobes_hemisphere_integral(rl, n);
+                g_env_rl[g_env_rl_count] = rl;
+                g_env_rl_count += 1;
+            }
         }
-    }
-    float u_env_lum = lobes_lum(u_env);
-    vec3 s_env = lobes_env_mask(p, n, r, u_env_lum, env_hidden, products, pruned, leaves, overflow);
-    float v_env = env_hidden ? 0.0 : (u_env_lum > 0.0 ? clamp(1.0 - lobes_lum(s_env) / u_env_lum, 0.0, 1.0) : 1.0) * v_hs;
-    if (lp.light_mode == 1u) {
-        result = v_env * rho / PI * e_free;
-        if (brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
-    } else {
-        result = env_hidden ? vec3(0.0) : max(u_env - s_env, vec3(0.0)) * v_hs;
-        // Specular kinds that are not lobes: the shared prefiltered term × the lobe visibility.
-        if (!phong && brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
-    }
+        float u_env_lum = lobes_lum(u_env);
+        vec3 s_env = lobes_env_mask(p, n, r, u_env_lum, env_hidden, products, pruned, leaves, overflow);
+        float v_env = env_hidden ? 0.0 : (u_env_lum > 0.0 ? clamp(1.0 - lobes_lum(s_env) / u_env_lum, 0.0, 1.0) : 1.0) * v_hs;
+        if (lp.light_mode == 1u) {
+            result = v_env * rho / PI * e_free;
+            if (brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+        } else {
+            result = env_hidden ? vec3(0.0) : max(u_env - s_env, vec3(0.0)) * v_hs;
+            // Specular kinds that are not lobes: the shared prefiltered term × the lobe visibility.
+            if (!phong && brdf_has_specular(sp.material)) result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+        }
 #else
-    // Environment: shared unshadowed terms times the lobe visibility estimate.
-    Lobe cos_rl[LOBES_MAX_R];
-    cos_rl[0].axis = n;
-    cos_rl[0].e = 1.0;
-    cos_rl[0].s = vec3(1.0);
-    for (int k = 1; k < LOBES_MAX_R; ++k) cos_rl[k] = cos_rl[0];
-    float u_cos = lobes_hemisphere_integral(cos_rl[0], n).x;
-    vec3 s_env = lobes_env_mask(p, n, cos_rl, u_cos, env_hidden, products, pruned, leaves, overflow);
-    vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_planes;
-    result = rho / PI * e_env;
-    if (brdf_has_specular(sp.material)) {
-        // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).
-        float den = lobes_lum(e_free);
-        float v_env = den > 0.0 ? clamp(lobes_lum(e_env) / den, 0.0, 1.0) : 1.0;
-        result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
-    }
+        // Environment: shared unshadowed terms times the lobe visibility estimate.
+        Lobe cos_rl[LOBES_MAX_R];
+        cos_rl[0].axis = n;
+        cos_rl[0].e = 1.0;
+        cos_rl[0].s = vec3(1.0);
+        for (int k = 1; k < LOBES_MAX_R; ++k) cos_rl[k] = cos_rl[0];
+        float u_cos = lobes_hemisphere_integral(cos_rl[0], n).x;
+        vec3 s_env = lobes_env_mask(p, n, cos_rl, u_cos, env_hidden, products, pruned, leaves, overflow);
+        vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_planes;
+        result = rho / PI * e_env;
+        if (brdf_has_specular(sp.material)) {
+            // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).
+            float den = lobes_lum(e_free);
+            float v_env = den > 0.0 ? clamp(lobes_lum(e_env) / den, 0.0, 1.0) : 1.0;
+            result += v_env * specular_prefiltered(prefiltered_env, sp.material, n, sp.view);
+        }
 #endif
+    }
 
     if (light_count > 0u) {
         SpecLobe sg[BRDF_MAX_LOBES];
@@ -718,5 +751,6 @@ vec3 shade_point(ShadePoint sp) {
     atomicAdd(lobes_stats[2], products);
     atomicAdd(lobes_stats[3], pruned);
     atomicAdd(lobes_stats[4], leaves);
+    if (g_budget_hit) atomicAdd(lobes_stats[7], 1u);
     return result;
 }

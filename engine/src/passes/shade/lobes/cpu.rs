@@ -93,6 +93,8 @@ pub struct LightTerms {
     pub outside: bool,
     /// The whole mask was covered (S = U).
     pub hidden: bool,
+    /// Some cell was kept from splitting by the work budget (`LobesOptions::budget`).
+    pub budget_limited: bool,
     /// S (green channel) by the depth of its leaves before the per-depth light weights (light masks
     /// only): S = Σ_d w_d `s_by_depth[d]` when nothing is pruned (the weight fit's regressors).
     pub s_by_depth: [f64; super::WEIGHT_DEPTHS],
@@ -471,10 +473,16 @@ impl Twin {
         out.overflow |= overflow;
         let (t, b) = orthonormal_basis(axis);
         let tested: &[BlockerPlane] = if with_planes { planes } else { &[] };
-        // The shader's cell state, counting its work (each blocker and plane tested, in its order).
-        let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64, work: &mut u32| -> u8 {
+        // The shader's cell state, counting its work (each blocker and plane tested, in its order). Only the
+        // blockers in `subset` (those that met the parent cell) are tested; on return it holds those that meet
+        // this cell (unchanged when one covers it).
+        let state = |q: &[DVec3; 4], centre: DVec3, gamma: f64, subset: &mut u64, work: &mut u32| -> u8 {
             let mut partial = false;
-            for &(c, beta) in &blockers {
+            let mut met = 0u64;
+            for (i, &(c, beta)) in blockers.iter().enumerate() {
+                if *subset & (1u64 << i) == 0 {
+                    continue;
+                }
                 *work += 1;
                 if angle_between(c.to_array(), centre.to_array()) >= beta + gamma {
                     continue;
@@ -484,7 +492,9 @@ impl Twin {
                     return 2;
                 }
                 partial = true;
+                met |= 1u64 << i;
             }
+            *subset = met;
             for pl in tested {
                 *work += 1;
                 if !pl.blocks_receiver(p) {
@@ -515,9 +525,11 @@ impl Twin {
             u8::from(partial)
         };
         let depth_max = depth.min(super::MAX_DEPTH);
-        let mut stack: Vec<(u32, u32, u32)> = vec![(0, 0, 0)];
+        // The gather holds at most MAX_BLOCKERS = 64 blockers: one bit each.
+        let all = if blockers.len() >= 64 { u64::MAX } else { (1u64 << blockers.len()) - 1 };
+        let mut stack: Vec<(u32, u32, u32, u64)> = vec![(0, 0, 0, all)];
         let mut work = 0u32;
-        while let Some((d, ix, iy)) = stack.pop() {
+        while let Some((d, ix, iy, mut subset)) = stack.pop() {
             let h = 1.0 / (1u32 << d) as f64;
             let cx = -1.0 + (2.0 * ix as f64 + 1.0) * h;
             let cy = -1.0 + (2.0 * iy as f64 + 1.0) * h;
@@ -533,8 +545,10 @@ impl Twin {
             let centre = (axis + tan_half * (cx * t + cy * b)).normalize();
             let gamma = q.iter().map(|x| angle_between(centre.to_array(), x.to_array())).fold(0.0, f64::max);
             work += 4;
-            let st = state(&q, centre, gamma, &mut work);
-            let refine = work < super::MASK_WORK_BUDGET;
+            let st = state(&q, centre, gamma, &mut subset, &mut work);
+            let refine = work < o.budget;
+            // A cell the budget keeps from splitting (the shader counts its receiver).
+            out.budget_limited |= !refine && ((st == 2 && d < o.split.min(depth_max)) || (st == 1 && d < depth_max));
             if st == 2 && d == 0 {
                 // The whole mask covered: hidden (S = U).
                 out.s = out.u;
@@ -543,7 +557,7 @@ impl Twin {
             }
             if st == 2 && d < o.split.min(depth_max) && refine {
                 for k in 0..4u32 {
-                    stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));
+                    stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), subset));
                 }
                 continue;
             }
@@ -552,7 +566,7 @@ impl Twin {
                 1 if d < depth_max && refine => {
                     // Pushed in the shader's order (k = 0..3), popped last first.
                     for k in 0..4u32 {
-                        stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1)));
+                        stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), subset));
                     }
                     continue;
                 }

@@ -20,7 +20,8 @@
 //!   lobe through the same kind of mask about the normal (half-angle 1.4 rad), half-spaces exactly.
 //!
 //! Bounds per invocation: [`MAX_BLOCKERS`] blockers per light (more are counted as overflow in
-//! [`LobesStats`] and dropped), quad-tree depth ≤ 6 (stack 19 cells), two reflectance lobes.
+//! [`LobesStats`] and dropped), quad-tree depth ≤ 6 (stack 19 cells), [`MASK_WORK_BUDGET`] per mask (the
+//! receivers that reach it are counted), four reflectance lobes (Lambert and up to three Lafortune lobes).
 //! [`cpu`] is the f64 twin of the per-receiver computation.
 
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
@@ -37,9 +38,9 @@ pub mod fit;
 pub const MAX_BLOCKERS: usize = 64;
 /// Deepest quad-tree the shader supports (LOBES_MAX_DEPTH).
 pub const MAX_DEPTH: u32 = 6;
-/// The work one mask may spend before it stops refining (a visited cell 4, each blocker or plane tested 1;
-/// later cells are leaves at their depth): llvmpipe ends every loop of an invocation after 65535 iterations in
-/// all, which deep masks over many blockers reached (LOBES_MASK_WORK_BUDGET).
+/// The default work one mask may spend before it stops refining (option `budget`; a visited cell 4, each
+/// blocker or plane tested 1; later cells are leaves at their depth): llvmpipe ends every loop of an
+/// invocation after 65535 iterations in all, which deep masks over many blockers reached.
 pub const MASK_WORK_BUDGET: u32 = 32768;
 /// The mask's half-angle never exceeds this (radians; LOBES_MASK_MAX_HALF_ANGLE).
 pub const MASK_MAX_HALF_ANGLE: f64 = 1.4;
@@ -132,6 +133,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "when a mask's cut still holds more than 64 blockers, retry it with `take_whole` doubled up to this many times before dropping (and counting) the rest",
     },
     OptionSpec {
+        key: "budget",
+        aliases: &[],
+        kind: Kind::Int { min: 64, max: 1 << 24 },
+        default: Some("32768"),
+        help: "work a mask may spend before it stops refining (a visited cell 4, each blocker or plane tested 1; its later cells become leaves at their depth; the receivers that reach it are counted): keeps lavapipe under its 65535 loop iterations per invocation",
+    },
+    OptionSpec {
         key: "env",
         aliases: &[],
         kind: Kind::Choice(&["map", "lobes"]),
@@ -216,6 +224,8 @@ pub struct LobesOptions {
     pub take_whole: f64,
     /// Retries of an overflowing cut with `take_whole` doubled.
     pub coarsen: u32,
+    /// The work one mask may spend before it stops refining ([`MASK_WORK_BUDGET`] by default).
+    pub budget: u32,
     /// `env=lobes`: the environment as this many fitted cosine lobes (0: `env=map`).
     pub env_lobes: usize,
     /// Refinement rounds of the environment lobe fit.
@@ -244,6 +254,7 @@ impl Default for LobesOptions {
             sharpen: 2.0,
             take_whole: 1.0,
             coarsen: 4,
+            budget: MASK_WORK_BUDGET,
             env_lobes: 0,
             refine: 6,
             phase: PHASES.len() as u32,
@@ -275,6 +286,7 @@ impl LobesOptions {
             sharpen: o.float("sharpen"),
             take_whole: o.float("take_whole"),
             coarsen: o.int("coarsen") as u32,
+            budget: o.int("budget") as u32,
             env_lobes: if o.choice("env") == "lobes" { o.int("K") as usize } else { 0 },
             refine: o.int("refine") as usize,
             phase: PHASES.iter().position(|&p| p == o.choice("phase")).map_or(PHASES.len(), |i| i + 1) as u32,
@@ -306,8 +318,10 @@ pub struct GpuLobesParams {
     pub light_weights: [f32; 8],
     /// Environment lobes in `EnvLobes` (`env=lobes`; 0 with `env=map`).
     pub env_lobe_count: u32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// The work budget of one mask.
+    pub budget: u32,
+    /// 1: the environment is black everywhere (the shader skips its term and mask).
+    pub env_black: u32,
     pub pad2: u32,
 }
 
@@ -365,8 +379,8 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         coarsen: o.coarsen,
         light_weights: std::array::from_fn(|d| o.light_weights.get(d).map_or(1.0, |&w| w as f32)),
         env_lobe_count: o.env_lobes.min(MAX_ENV_LOBES) as u32,
-        pad0: 0,
-        pad1: 0,
+        budget: o.budget,
+        env_black: 0,
         pad2: 0,
     }
 }
@@ -389,6 +403,9 @@ pub struct LobesStats {
     pub env_overflowed: u64,
     /// Receivers where some light's mask overflowed (part of `overflowed`).
     pub light_overflowed: u64,
+    /// Receivers where some mask stopped refining at [`MASK_WORK_BUDGET`] (its later cells became leaves at
+    /// their depth: a coarser mask there, not a dropped blocker).
+    pub budget_limited: u64,
 }
 
 /// The work per shaded receiver (none before any receiver was shaded): lobe products computed (each
@@ -400,11 +417,12 @@ pub fn work_line(s: &LobesStats) -> Option<String> {
         let per = |x: u64| x as f64 / s.receivers as f64;
         format!(
             "lobes: per shaded receiver {:.1} lobe products, {:.1} of them below t_i and dropped ({:.1} %), {:.1} \
-             shadow leaves ({} receivers)",
+             shadow leaves, masks cut short by the work budget at {:.2} % ({} receivers)",
             per(s.products),
             per(s.pruned),
             if s.products > 0 { 100.0 * s.pruned as f64 / s.products as f64 } else { 0.0 },
             per(s.leaves),
+            100.0 * per(s.budget_limited),
             s.receivers
         )
     })
@@ -496,6 +514,7 @@ impl Lobes {
             leaves: g(4),
             env_overflowed: g(5),
             light_overflowed: g(6),
+            budget_limited: g(7),
         })
     }
 
@@ -554,6 +573,7 @@ impl Technique for Lobes {
         }
         let mut p = params(&self.options, inputs.blockers()?.sphere_count);
         p.env_lobe_count = if self.options.env_lobes > 0 { gpu_lobes.len().min(MAX_ENV_LOBES) as u32 } else { 0 };
+        p.env_black = u32::from(inputs.environment.cpu.texels.iter().all(|t| t.iter().all(|&c| c == 0.0)));
         let params = match gpu.upload_buffer("lobes-params", BufferDesc::gpu_only(0), std::slice::from_ref(&p)) {
             Ok(b) => b,
             Err(e) => {
