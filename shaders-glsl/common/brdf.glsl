@@ -105,6 +105,23 @@ vec3 brdf_lafortune_lobe(vec4 ce, vec3 n, vec3 t, vec3 v, out float peak) {
     return mv / g;
 }
 
+// The Lafortune normalization (e+2)/(2π) (twin: lafortune_norm).
+float brdf_lafortune_norm(float e) {
+    return (e + 2.0) / (2.0 * PI);
+}
+
+// Lafortune lobe i at a point seen from v, when present (w_i > 0): its axis d_i, exponent e_i and the scale
+// w_i (e_i+2)/(2π) |M_i v|^e_i of max(d_i·l, 0)^e_i (times k_s: the lobe's f_s).
+bool brdf_lafortune_term(Material m, int i, vec3 n, vec3 t, vec3 v, out vec3 axis, out float e, out float scale) {
+    float w = brdf_lafortune_w(m, i);
+    vec4 ce = brdf_lafortune_ce(m, i);
+    float peak;
+    axis = brdf_lafortune_lobe(ce, n, t, v, peak);
+    e = ce.w;
+    scale = w * brdf_lafortune_norm(ce.w) * peak;
+    return w > 0.0;
+}
+
 // The probabilities of sampling each Lafortune lobe from v, ∝ w_i g_i^e_i (e_i+2)/(e_i+1) (uniform over
 // the present lobes where all vanish), and the lobes' axes. Twin: lafortune_pick.
 void brdf_lafortune_pick(Material m, vec3 n, vec3 t, vec3 v, out float p[BRDF_LAFORTUNE_LOBES],
@@ -122,11 +139,6 @@ void brdf_lafortune_pick(Material m, vec3 n, vec3 t, vec3 v, out float p[BRDF_LA
     for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
         p[i] = sum > 0.0 ? p[i] / sum : (brdf_lafortune_w(m, i) > 0.0 ? 1.0 / present : 0.0);
     }
-}
-
-// The Lafortune normalization (e+2)/(2π) (twin: lafortune_norm).
-float brdf_lafortune_norm(float e) {
-    return (e + 2.0) / (2.0 * PI);
 }
 
 // Exact specular f_s(l, v) without the cosine (twin: specular_brdf).
@@ -156,12 +168,9 @@ vec3 brdf_specular(Material m, vec3 n, vec3 t, vec3 v, vec3 l) {
     if (kind == BRDF_LAFORTUNE) {
         float f = 0.0;
         for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
-            float w = brdf_lafortune_w(m, i);
-            if (w <= 0.0) continue;
-            vec4 ce = brdf_lafortune_ce(m, i);
-            float peak;
-            vec3 d = brdf_lafortune_lobe(ce, n, t, v, peak);
-            f += w * brdf_lafortune_norm(ce.w) * peak * brdf_pow_pos(dot(d, l), ce.w);
+            vec3 d;
+            float e, scale;
+            if (brdf_lafortune_term(m, i, n, t, v, d, e, scale)) f += scale * brdf_pow_pos(dot(d, l), e);
         }
         return ks * f;
     }
@@ -310,14 +319,12 @@ int brdf_specular_lobes(Material m, vec3 n, vec3 v, out SpecLobe lobes[BRDF_MAX_
         // One SG per lobe about its axis with λ = e + 1 (the same peak and integral).
         int count = 0;
         for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
-            float w = brdf_lafortune_w(m, i);
-            if (w <= 0.0) continue;
-            vec4 ce = brdf_lafortune_ce(m, i);
-            float peak;
-            vec3 d = brdf_lafortune_lobe(ce, n, t, v, peak);
+            vec3 d;
+            float e, scale;
+            if (!brdf_lafortune_term(m, i, n, t, v, d, e, scale)) continue;
             lobes[count].axis = d;
-            lobes[count].lambda = ce.w + 1.0;
-            lobes[count].weight = ks * (w * brdf_lafortune_norm(ce.w) * peak * max(dot(n, d), 0.0));
+            lobes[count].lambda = e + 1.0;
+            lobes[count].weight = ks * (scale * max(dot(n, d), 0.0));
             count += 1;
         }
         return count;

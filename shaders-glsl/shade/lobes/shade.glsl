@@ -197,13 +197,12 @@ int lobes_specular_lobes(Material m, vec3 n, vec3 view, out Lobe spec[LOBES_MAX_
     vec3 t = brdf_tangent(m, n);
     int count = 0;
     for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
-        float w = brdf_lafortune_w(m, i);
-        if (w <= 0.0) continue;
-        vec4 ce = brdf_lafortune_ce(m, i);
-        float peak;
-        spec[count].axis = brdf_lafortune_lobe(ce, n, t, view, peak);
-        spec[count].e = ce.w;
-        spec[count].s = m.specular.rgb * (w * brdf_lafortune_norm(ce.w) * peak);
+        vec3 d;
+        float e, scale;
+        if (!brdf_lafortune_term(m, i, n, t, view, d, e, scale)) continue;
+        spec[count].axis = d;
+        spec[count].e = e;
+        spec[count].s = m.specular.rgb * scale;
         count += 1;
     }
     return count;
