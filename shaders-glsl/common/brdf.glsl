@@ -128,13 +128,12 @@ void brdf_lafortune_pick(Material m, vec3 n, vec3 t, vec3 v, out float p[BRDF_LA
                          out vec3 axis[BRDF_LAFORTUNE_LOBES]) {
     float sum = 0.0, present = 0.0;
     for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
-        vec4 ce = brdf_lafortune_ce(m, i);
-        float w = brdf_lafortune_w(m, i);
-        float peak = 0.0;
-        axis[i] = brdf_lafortune_lobe(ce, n, t, v, peak);
-        p[i] = w > 0.0 ? w * peak * (ce.w + 2.0) / (ce.w + 1.0) : 0.0;
+        float e, scale;
+        bool here = brdf_lafortune_term(m, i, n, t, v, axis[i], e, scale);
+        // w g^e (e+2)/(e+1) = the term's scale w (e+2)/(2π) g^e times 2π/(e+1).
+        p[i] = here ? scale * (2.0 * PI) / (e + 1.0) : 0.0;
         sum += p[i];
-        present += w > 0.0 ? 1.0 : 0.0;
+        present += here ? 1.0 : 0.0;
     }
     for (int i = 0; i < BRDF_LAFORTUNE_LOBES; ++i) {
         p[i] = sum > 0.0 ? p[i] / sum : (brdf_lafortune_w(m, i) > 0.0 ? 1.0 / present : 0.0);

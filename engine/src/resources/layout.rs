@@ -46,7 +46,7 @@ pub struct GpuMaterial {
     /// 1 when the Ashikhmin–Shirley lobes lie along b, 0 along t.
     pub lobes_along_b: f32,
     /// Lafortune: (C_x, C_y, C_z, e) of lobes 1 and 2 (their weights in `lobes`).
-    pub more: [[f32; 4]; 2],
+    pub more: [[f32; 4]; crate::scene::LAFORTUNE_MORE],
 }
 
 /// BRDF kinds in [`GpuMaterial::kind`] (exact small integers in f32).
@@ -72,12 +72,12 @@ impl GpuMaterial {
             Brdf::Lafortune { c, e, .. } => (BRDF_LAFORTUNE, [c[0], c[1], c[2], e]),
         };
         let (lobes, more) = match m.brdf {
-            Brdf::BlinnPhong => ([0.0; 4], [[0.0; 4]; 2]),
+            Brdf::BlinnPhong => ([0.0; 4], [[0.0; 4]; crate::scene::LAFORTUNE_MORE]),
             Brdf::Lafortune { more, .. } => (
                 [1.0, more[0].w, more[1].w, 0.0],
                 more.map(|l| if l.w > 0.0 { [l.c[0], l.c[1], l.c[2], l.e] } else { [0.0; 4] }),
             ),
-            _ => (fit.mu.map(|x| x as f32), [[0.0; 4]; 2]),
+            _ => (fit.mu.map(|x| x as f32), [[0.0; 4]; crate::scene::LAFORTUNE_MORE]),
         };
         let t = m.tangent;
         Self {
