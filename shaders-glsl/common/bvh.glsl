@@ -49,31 +49,24 @@ BvhCursor bvh_cursor_begin(uint sphere_count) {
     return c;
 }
 
-// Pops the next node to visit into `node`; false when the traversal is finished.
-bool bvh_cursor_next(inout BvhCursor c, out uint node) {
-    if (c.size == 0u) {
-        node = BVH_INVALID;
-        return false;
-    }
-    c.size -= 1u;
-    node = c.stack[c.size];
-    return true;
-}
+// The two cursor steps below are macros over the caller's own cursor variable, not functions: a GLSL
+// function takes an `inout` argument by copy (in and out), and llvmpipe copied the whole stack at every
+// step (the `isg` shade pass on the bunny lost about 10-15 % to it; README, "Speed").
 
-// Pushes both children (the left one is visited first). Returns false, pushes nothing and sets
-// c.overflowed when there is no room for both: the caller must then take the node whole (use its
-// bounding sphere as if it were a leaf). That is conservative for blocking, since the node's sphere
-// contains every sphere below it: overflow can only add occlusion, never lose it.
-bool bvh_cursor_push_children(inout BvhCursor c, uint left, uint right) {
-    if (c.size + 2u > uint(BVH_STACK_SIZE)) {
-        c.overflowed = true;
-        return false;
-    }
-    c.stack[c.size] = right;
-    c.stack[c.size + 1u] = left;
-    c.size += 2u;
-    return true;
-}
+// bool bvh_cursor_next(BvhCursor c, out uint node): pops the next node to visit into `node`; false
+// (and `node` untouched) when the traversal is finished.
+#define bvh_cursor_next(c, node) \
+    ((c).size == 0u ? false : ((c).size -= 1u, (node) = (c).stack[(c).size], true))
+
+// bool bvh_cursor_push_children(BvhCursor c, uint left, uint right): pushes both children (the left
+// one is visited first). Returns false, pushes nothing and sets c.overflowed when there is no room for
+// both: the caller must then take the node whole (use its bounding sphere as if it were a leaf). That
+// is conservative for blocking, since the node's sphere contains every sphere below it: overflow can
+// only add occlusion, never lose it.
+#define bvh_cursor_push_children(c, left, right) \
+    ((c).size + 2u > uint(BVH_STACK_SIZE) \
+         ? ((c).overflowed = true, false) \
+         : ((c).stack[(c).size] = (right), (c).stack[(c).size + 1u] = (left), (c).size += 2u, true))
 
 bool bvh_is_leaf(BvhNode n) {
     return n.left == BVH_INVALID;
