@@ -18,7 +18,7 @@ void isg_planes_begin(vec3 p) {}
 bool isg_planes_present() {
     return false;
 }
-bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
+bool isg_planes_mark(IsgGrid g) {
     return false;
 }
 #else
@@ -41,9 +41,9 @@ bool isg_planes_present() {
     return g_isg_planes_any;
 }
 
-// Marks the patches of g whose centre direction from the receiver is blocked by a plane; whether
-// any patch was marked by a rectangle or a half-space's cap could reach the grid.
-bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
+// Marks in isg_mask the patches of g whose centre direction from the receiver is blocked by a plane;
+// whether any patch was marked by a rectangle or a half-space's cap could reach the grid.
+bool isg_planes_mark(IsgGrid g) {
     if (!g_isg_planes_any) return false;
     vec3 p = g_isg_planes_p;
     bool marked = false;
@@ -53,7 +53,7 @@ bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
         if (!plane_is_rectangle(pl)) {
             vec3 down = -pl.plane.xyz;
             if (spheres_angle_between(g.z, down) > g.cone + ISG_HALF_PI) continue;
-            isg_mark_cap(mask, g, down, ISG_HALF_PI);
+            isg_mark_cap(g, down, ISG_HALF_PI);
             marked = true;
             continue;
         }
@@ -78,7 +78,7 @@ bool isg_planes_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
             bits &= isg_cap_row_bits(g, i, c1.x, c1.y, c1.z, 0.0);
             bits &= isg_cap_row_bits(g, i, c2.x, c2.y, c2.z, 0.0);
             bits &= isg_cap_row_bits(g, i, c3.x, c3.y, c3.z, 0.0);
-            mask[i] |= bits;
+            isg_mask[i] |= bits;
             if (bits != 0u) marked = true;
         }
     }

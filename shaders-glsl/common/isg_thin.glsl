@@ -35,7 +35,7 @@ void isg_thin_begin(vec3 p, vec3 n) {}
 bool isg_thin_present() {
     return false;
 }
-bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
+bool isg_thin_mark(IsgGrid g) {
     return false;
 }
 #else
@@ -122,7 +122,7 @@ uint isg_thin_edge_bits(IsgGrid g, IsgThinEdge h, float st, float ct, uint full)
 // (1152 triangles) at 100 × 75 this runs at most ≈ 5.7k loop iterations per pixel in `diffuse=map` and
 // ≈ 34k with `diffuse=sg|ratio` (K = 10, P = 32, a grid per lobe); `K=16` reaches the limit at a few
 // percent of the pixels.
-bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
+bool isg_thin_mark(IsgGrid g) {
     if (!isg_thin_present()) return false;
     vec3 p = g_isg_thin_p;
     vec3 n = g_isg_thin_n;
@@ -153,7 +153,7 @@ bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
         // decides: one iteration).
         bool open_row = false;
         for (int i = i_lo; i <= i_hi; ++i) {
-            if (mask[i] != full) {
+            if (isg_mask[i] != full) {
                 open_row = true;
                 break;
             }
@@ -203,14 +203,14 @@ bool isg_thin_mark(inout uint mask[ISG_MAX_SIDE], IsgGrid g) {
             IsgThinEdge h1 = isg_thin_edge(vec3(dot(n1, g.x), dot(n1, g.y), dot(n1, g.z)));
             IsgThinEdge h2 = isg_thin_edge(vec3(dot(n2, g.x), dot(n2, g.y), dot(n2, g.z)));
             for (int i = t_lo; i <= t_hi; ++i) {
-                uint m = full & ~mask[i];
+                uint m = full & ~isg_mask[i];
                 if (m == 0u) continue;
                 float st = g_isg_thin_sin[i];
                 float ct = g_isg_thin_cos[i];
                 m &= isg_thin_edge_bits(g, h0, st, ct, full);
                 m &= isg_thin_edge_bits(g, h1, st, ct, full);
                 m &= isg_thin_edge_bits(g, h2, st, ct, full);
-                mask[i] |= m;
+                isg_mask[i] |= m;
             }
         }
     }

@@ -29,6 +29,16 @@
 // Patches per side at most (one 32-bit mask word per row).
 #define ISG_MAX_SIDE 32
 
+// The occluded patches of the grid being marked, one word per row (bit j: patch j of the row). One grid
+// at a time per invocation: the functions below mark and read this array instead of taking it as an
+// argument, because a GLSL function takes an array argument by copy and llvmpipe copied all 32 words at
+// every call (README, "Speed").
+uint isg_mask[ISG_MAX_SIDE];
+
+void isg_mask_clear() {
+    for (int i = 0; i < ISG_MAX_SIDE; ++i) isg_mask[i] = 0u;
+}
+
 // Work counters of the cost model (option `counters` of technique isg compiles ISG_COUNTERS, and
 // the shader then shows them instead of radiance): 0 BVH nodes of the hemisphere traversal, 1 BVH
 // nodes of the lobe traversals, 2 caps marked (spheres, the horizon, half-spaces), 3 cap rows (one
@@ -118,22 +128,29 @@ vec4 isg_cap_coords(IsgGrid g, vec3 u) {
     return vec4(rho, uy, rho > 0.0 ? atan(uz, ux) : 0.0, atan(rho, uy));
 }
 
-// Patches whose centre lies in the cap of half-angle psi around the unit direction u.
-void isg_mark_cap(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 u, float psi) {
-    uint full = isg_bit_range(0, g.side - 1);
+// The rows [lo, hi] of the patches whose centre can lie in the cap of half-angle psi < π around the
+// unit direction u, and u's grid coordinates for isg_cap_row_bits (isg_cap_coords).
+ivec2 isg_cap_rows(IsgGrid g, float psi, vec4 uc) {
+    float last = float(g.side - 1);
+    int i_lo = int(clamp(ceil((uc.w - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
+    int i_hi = int(clamp(floor((uc.w + psi - g.lo) / g.delta - 0.5), -1.0, last));
+    return ivec2(i_lo, i_hi);
+}
+
+// Marks in isg_mask the patches whose centre lies in the cap of half-angle psi around the unit
+// direction u.
+void isg_mark_cap(IsgGrid g, vec3 u, float psi) {
     if (psi >= ISG_PI) {
-        for (int i = 0; i < g.side; ++i) mask[i] = full;
+        uint full = isg_bit_range(0, g.side - 1);
+        for (int i = 0; i < g.side; ++i) isg_mask[i] = full;
         return;
     }
     vec4 uc = isg_cap_coords(g, u);
-    float theta_c = uc.w;
     float cos_psi = cos(psi);
-    float last = float(g.side - 1);
-    int i_lo = int(clamp(ceil((theta_c - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
-    int i_hi = int(clamp(floor((theta_c + psi - g.lo) / g.delta - 0.5), -1.0, last));
+    ivec2 rows = isg_cap_rows(g, psi, uc);
     ISG_COUNT(2, 1);
-    ISG_COUNT(3, max(i_hi - i_lo + 1, 0));
-    for (int i = i_lo; i <= i_hi; ++i) mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
+    ISG_COUNT(3, max(rows.y - rows.x + 1, 0));
+    for (int i = rows.x; i <= rows.y; ++i) isg_mask[i] |= isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
 }
 
 // Ŝ at a corner given its warped coordinates (table) or its angles (the paper's fit).
@@ -148,14 +165,14 @@ float isg_warp_of(float x, vec2 wc, int evaluator) {
     return evaluator == ISG_EVAL_TABLE ? isg_lut_warp(x, wc) : 0.0;
 }
 
-// Sum of the normalized ISG over the marked patches, run by run along each row (the warps of a
-// row's two θ lines are shared by its runs).
-float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int evaluator) {
+// Sum of the normalized ISG over the patches marked in isg_mask, run by run along each row (the warps
+// of a row's two θ lines are shared by its runs).
+float isg_occluded_sum(IsgGrid g, float lambda, int evaluator) {
     vec2 wc = isg_lut_warp_consts(lambda);
     float fl = isg_lut_slice(lambda);
     float sum = 0.0;
     for (int i = 0; i < g.side; ++i) {
-        uint m = mask[i];
+        uint m = isg_mask[i];
         if (m == 0u) continue;
         float t0 = g.lo + float(i) * g.delta;
         float t1 = t0 + g.delta;
@@ -184,37 +201,36 @@ float isg_occluded_sum(uint mask[ISG_MAX_SIDE], IsgGrid g, float lambda, int eva
 #include "isg_planes.glsl"  // plane blockers under ISG_PLANES, no-op stubs otherwise
 
 // The blockers seen from one receiver, gathered once and shared by all lobes of the point: each as
-// its cap of directions (unit centre direction, half-angle), after the self-shadowing rule.
+// its cap of directions (unit centre direction, half-angle), after the self-shadowing rule. One list
+// per invocation, kept here rather than passed around for the same reason as isg_mask.
 #ifndef ISG_MAX_BLOCKERS
 #define ISG_MAX_BLOCKERS 64
 #endif
-struct IsgBlockers {
-    vec4 caps[ISG_MAX_BLOCKERS];
-    int count;
-    // Blockers that found the list full (the caller must then not use the list).
-    int dropped;
-};
+vec4 isg_caps[ISG_MAX_BLOCKERS];
+int isg_cap_count = 0;
+// Blockers that found the list full (the caller must then not use the list).
+int isg_caps_dropped = 0;
 
-void isg_add_blocker(inout IsgBlockers b, vec3 p, vec3 n, vec4 s) {
+void isg_add_blocker(vec3 p, vec3 n, vec4 s) {
     vec4 blk;
     if (!blocker_for_receiver(p, n, s, blk) || blk.w <= 0.0) return;
     vec3 d = blk.xyz - p;
     float dist = length(d);
     if (dist <= 0.0) return;
-    if (b.count >= ISG_MAX_BLOCKERS) {
-        b.dropped += 1;
+    if (isg_cap_count >= ISG_MAX_BLOCKERS) {
+        isg_caps_dropped += 1;
         return;
     }
-    b.caps[b.count] = vec4(d / dist, sphere_subtended_half_angle(p, blk));
-    b.count += 1;
+    isg_caps[isg_cap_count] = vec4(d / dist, sphere_subtended_half_angle(p, blk));
+    isg_cap_count += 1;
 }
 
-// Traverse the BVH from p within the cone (axis, half_angle): nodes below `take_whole` radians of
-// angular radius (and nodes that do not fit on the stack) are taken whole, leaves always.
-void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, uint sphere_count,
-                out IsgBlockers b) {
-    b.count = 0;
-    b.dropped = 0;
+// Traverse the BVH from p within the cone (axis, half_angle) into the blocker list (isg_caps): nodes
+// below `take_whole` radians of angular radius (and nodes that do not fit on the stack) are taken
+// whole, leaves always.
+void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, uint sphere_count) {
+    isg_cap_count = 0;
+    isg_caps_dropped = 0;
     BvhCursor cur = bvh_cursor_begin(sphere_count);
     uint node;
     while (bvh_cursor_next(cur, node)) {
@@ -227,43 +243,41 @@ void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, u
             float psi = sphere_subtended_half_angle(p, s);
             if (psi >= take_whole && bvh_cursor_push_children(cur, nd.left, nd.right)) continue;
         }
-        isg_add_blocker(b, p, n, s);
+        isg_add_blocker(p, n, s);
     }
 }
 
 // Occluded parts of the lobe (axis, λ), in Ŝ units: x = by the receiver's own tangent plane alone
 // (directions below it, where the surface itself blocks: V = 0), y = by the plane and the gathered
-// blockers together. The lobe's visible integral is μ (F − H y); its integral over the receiver's upper
-// hemisphere is μ (F − H x).
-vec2 isg_occlusion_of(IsgBlockers b, vec3 n, vec3 axis, float lambda, IsgSettings st) {
+// blockers (isg_caps) together. The lobe's visible integral is μ (F − H y); its integral over the
+// receiver's upper hemisphere is μ (F − H x). Uses (and leaves) isg_mask.
+vec2 isg_occlusion_of(vec3 n, vec3 axis, float lambda, IsgSettings st) {
     IsgGrid g = isg_grid(axis, lambda, st);
-    uint mask[ISG_MAX_SIDE];
-    for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
+    isg_mask_clear();
     float horizon = 0.0;
     if (spheres_angle_between(axis, -n) <= g.cone + ISG_HALF_PI) {
-        isg_mark_cap(mask, g, -n, ISG_HALF_PI);
-        horizon = isg_occluded_sum(mask, g, lambda, st.evaluator);
+        isg_mark_cap(g, -n, ISG_HALF_PI);
+        horizon = isg_occluded_sum(g, lambda, st.evaluator);
     }
     bool marked = false;
-    for (int c = 0; c < b.count; ++c) {
-        vec4 cap = b.caps[c];
+    for (int c = 0; c < isg_cap_count; ++c) {
+        vec4 cap = isg_caps[c];
         // Cone test of the cap against the cone holding the grid.
         if (spheres_angle_between(axis, cap.xyz) > g.cone + cap.w) continue;
-        isg_mark_cap(mask, g, cap.xyz, cap.w);
+        isg_mark_cap(g, cap.xyz, cap.w);
         marked = true;
     }
 #ifdef ISG_THIN
-    if (isg_thin_mark(mask, g)) marked = true;  // thin-shell triangles (isg_thin.glsl)
+    if (isg_thin_mark(g)) marked = true;  // thin-shell triangles (isg_thin.glsl)
 #endif
-    if (isg_planes_mark(mask, g)) marked = true;  // plane blockers (isg_planes.glsl)
-    return vec2(horizon, marked ? isg_occluded_sum(mask, g, lambda, st.evaluator) : horizon);
+    if (isg_planes_mark(g)) marked = true;  // plane blockers (isg_planes.glsl)
+    return vec2(horizon, marked ? isg_occluded_sum(g, lambda, st.evaluator) : horizon);
 }
 
 // Traverse the BVH from p over the hemisphere above n and mark every blocker's cap (after the
-// self-shadowing rule) straight into the grid's mask: no blocker list, so no overflow. Nodes below
+// self-shadowing rule) straight into isg_mask: no blocker list, so no overflow. Nodes below
 // `take_whole` radians of angular radius are taken whole, leaves always.
-void isg_mark_traversed(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 p, vec3 n, float take_whole,
-                        uint sphere_count) {
+void isg_mark_traversed(IsgGrid g, vec3 p, vec3 n, float take_whole, uint sphere_count) {
     BvhCursor cur = bvh_cursor_begin(sphere_count);
     uint node;
     while (bvh_cursor_next(cur, node)) {
@@ -280,7 +294,7 @@ void isg_mark_traversed(inout uint mask[ISG_MAX_SIDE], IsgGrid g, vec3 p, vec3 n
         vec3 d = blk.xyz - p;
         float dist = length(d);
         if (dist <= 0.0) continue;
-        isg_mark_cap(mask, g, d / dist, sphere_subtended_half_angle(p, blk));
+        isg_mark_cap(g, d / dist, sphere_subtended_half_angle(p, blk));
     }
 }
 
@@ -292,16 +306,16 @@ float isg_row_sin2(IsgGrid g, int i) {
     return 0.5 * ((t1 - sin(t1) * cos(t1)) - (t0 - sin(t0) * cos(t0)));
 }
 
-// The same with the lobe's own traversal (cone and node threshold from its own grid).
+// The same with the lobe's own traversal (cone and node threshold from its own grid), which replaces
+// the blocker list.
 vec2 isg_occlusion(vec3 p, vec3 n, vec3 axis, float lambda, IsgSettings st, uint sphere_count) {
-    IsgBlockers b;
-    b.count = 0;
-    b.dropped = 0;
+    isg_cap_count = 0;
+    isg_caps_dropped = 0;
     if (sphere_count > 0u) {
         IsgGrid g = isg_grid(axis, lambda, st);
-        isg_gather(p, n, axis, g.cone, st.node_threshold * g.delta, sphere_count, b);
+        isg_gather(p, n, axis, g.cone, st.node_threshold * g.delta, sphere_count);
     }
-    return isg_occlusion_of(b, n, axis, lambda, st);
+    return isg_occlusion_of(n, axis, lambda, st);
 }
 
 #endif // ISG_VISIBILITY_GLSL

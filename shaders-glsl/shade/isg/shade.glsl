@@ -77,14 +77,14 @@ float isg_full_integral(float lambda) {
     return 2.0 * PI * sg_unit_integral_over_2pi(lambda);
 }
 
-// The hemisphere grid above n (Γ = π/2 around n) with the patches occluded by the blockers marked:
-// the grid of diffuse mode `map` and of the lights' visibility.
-IsgGrid isg_hemisphere_mask(vec3 p, vec3 n, IsgSettings st, uint spheres, out uint mask[ISG_MAX_SIDE]) {
+// The hemisphere grid above n (Γ = π/2 around n) with the patches occluded by the blockers marked in
+// isg_mask: the grid of diffuse mode `map` and of the lights' visibility.
+IsgGrid isg_hemisphere_mask(vec3 p, vec3 n, IsgSettings st, uint spheres) {
     IsgGrid g = isg_grid(n, 0.0, st);
-    for (int i = 0; i < ISG_MAX_SIDE; ++i) mask[i] = 0u;
-    if (spheres > 0u) isg_mark_traversed(mask, g, p, n, isg.gather_take_whole, spheres);
-    isg_thin_mark(mask, g);  // thin-shell triangles (common/isg_thin.glsl)
-    isg_planes_mark(mask, g);  // plane blockers (common/isg_planes.glsl)
+    isg_mask_clear();
+    if (spheres > 0u) isg_mark_traversed(g, p, n, isg.gather_take_whole, spheres);
+    isg_thin_mark(g);  // thin-shell triangles (common/isg_thin.glsl)
+    isg_planes_mark(g);  // plane blockers (common/isg_planes.glsl)
     return g;
 }
 
@@ -100,16 +100,16 @@ float isg_row_weight(IsgGrid g, int i, uint bits) {
     return isg_row_sin2(g, i) * w;
 }
 
-// Diffuse mode `map`: E(n) minus the light of the occluded patches of one P × P grid over the
-// hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
+// Diffuse mode `map`: E(n) minus the light of the occluded patches (isg_mask) of one P × P grid over
+// the hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
 // matched to the patch) times its exact cosine-weighted solid angle.
-vec3 isg_map_irradiance(vec3 n, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
+vec3 isg_map_irradiance(vec3 n, IsgGrid g) {
     vec3 irr = irradiance_lookup(irradiance_map, n);
     // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
     float lambda_f = 12.0 / (g.delta * g.delta);
     vec3 occluded = vec3(0.0);
     for (int i = 0; i < g.side; ++i) {
-        uint m = mask[i];
+        uint m = isg_mask[i];
         if (m == 0u) continue;
         float a = isg_row_sin2(g, i);
         float th = g.lo + (float(i) + 0.5) * g.delta;
@@ -130,18 +130,22 @@ vec3 isg_map_irradiance(vec3 n, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
 }
 
 // Visibility of a light's cap (axis, half-angle α; `outside` false: the whole sphere) in the
-// hemisphere grid: 1 − Σ_occluded C_p / Σ C_p over the patches whose centres lie in the cap; a cap
-// holding no patch centre takes the patch that holds its axis (1 when the axis is below the grid).
-float isg_light_visibility(IsgGrid g, uint mask[ISG_MAX_SIDE], bool outside, vec3 axis, float sin_alpha, float cos_alpha) {
-    uint cap[ISG_MAX_SIDE];
-    for (int i = 0; i < ISG_MAX_SIDE; ++i) cap[i] = 0u;
-    isg_mark_cap(cap, g, axis, outside ? atan(sin_alpha, cos_alpha) : ISG_PI);
+// hemisphere grid (occluded patches in isg_mask): 1 − Σ_occluded C_p / Σ C_p over the patches whose
+// centres lie in the cap; a cap holding no patch centre takes the patch that holds its axis (1 when the
+// axis is below the grid).
+float isg_light_visibility(IsgGrid g, bool outside, vec3 axis, float sin_alpha, float cos_alpha) {
     float total = 0.0;
     float occluded = 0.0;
-    for (int i = 0; i < g.side; ++i) {
-        if (cap[i] == 0u) continue;
-        total += isg_row_weight(g, i, cap[i]);
-        occluded += isg_row_weight(g, i, cap[i] & mask[i]);
+    float psi = outside ? atan(sin_alpha, cos_alpha) : ISG_PI;
+    uint full = isg_bit_range(0, g.side - 1);
+    vec4 uc = isg_cap_coords(g, axis);
+    float cos_psi = cos(psi);
+    ivec2 rows = psi >= ISG_PI ? ivec2(0, g.side - 1) : isg_cap_rows(g, psi, uc);
+    for (int i = rows.x; i <= rows.y; ++i) {
+        uint cap = psi >= ISG_PI ? full : isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi);
+        if (cap == 0u) continue;
+        total += isg_row_weight(g, i, cap);
+        occluded += isg_row_weight(g, i, cap & isg_mask[i]);
     }
     if (total > 0.0) return clamp(1.0 - occluded / total, 0.0, 1.0);
     float ux = dot(axis, g.x), uy = dot(axis, g.y), uz = dot(axis, g.z);
@@ -150,11 +154,12 @@ float isg_light_visibility(IsgGrid g, uint mask[ISG_MAX_SIDE], bool outside, vec
     float phi = atan(uz, ux);
     int i = clamp(int(floor((theta - g.lo) / g.delta)), 0, g.side - 1);
     int j = clamp(int(floor((phi - g.lo) / g.delta)), 0, g.side - 1);
-    return (mask[i] >> uint(j) & 1u) != 0u ? 0.0 : 1.0;
+    return (isg_mask[i] >> uint(j) & 1u) != 0u ? 0.0 : 1.0;
 }
 
-// Σ over the lights of their unshadowed radiance times their visibility in the hemisphere grid.
-vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, uint mask[ISG_MAX_SIDE]) {
+// Σ over the lights of their unshadowed radiance times their visibility in the hemisphere grid
+// (isg_mask).
+vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g) {
     SpecLobe lobes[BRDF_MAX_LOBES];
     int count = brdf_specular_lobes(sp.material, sp.normal, sp.view, lobes);
     vec3 sum = vec3(0.0);
@@ -162,7 +167,7 @@ vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, uint mask[ISG_MAX_SIDE
         vec3 axis;
         float sa, ca;
         bool outside = light_cap(j, sp.position, axis, sa, ca);
-        float v = occluders ? isg_light_visibility(g, mask, outside, axis, sa, ca) : 1.0;
+        float v = occluders ? isg_light_visibility(g, outside, axis, sa, ca) : 1.0;
         if (v > 0.0) sum += v * light_unshadowed(sp, j, lobes, count, outside, axis, sa, ca);
     }
     return sum;
@@ -205,12 +210,13 @@ vec3 shade_point_radiance(ShadePoint sp) {
     // `threshold` widths of the finest grid any diffuse lobe can have (computed once at prepare). Points
     // whose blockers overflow the list (ISG_MAX_BLOCKERS) traverse once per lobe instead.
     uint k_count = diffuse_mode == 2u ? 0u : isg.lobe_count;
-    IsgBlockers blockers;
-    blockers.count = 0;
-    blockers.dropped = 0;
+    isg_cap_count = 0;
+    isg_caps_dropped = 0;
     if (spheres > 0u && k_count > 0u) {
-        isg_gather(sp.position, n, n, ISG_HALF_PI, isg.gather_take_whole, spheres, blockers);
+        isg_gather(sp.position, n, n, ISG_HALF_PI, isg.gather_take_whole, spheres);
     }
+    // (A per-lobe traversal replaces the list: decided once.)
+    bool shared_list = isg_caps_dropped == 0;
     vec3 e = vec3(0.0);
     vec3 e_full = vec3(0.0);
     for (uint k = 0u; k < k_count; ++k) {
@@ -219,8 +225,8 @@ vec3 shade_point_radiance(ShadePoint sp) {
         float lambda;
         float log_mu = sg_product_log(l.axis, l.lambda, 1.0, n, cos_lambda, cos_mu, axis, lambda);
         // A full blocker list would lose occlusion: such points traverse per lobe instead.
-        vec2 occ = blockers.dropped == 0 ? isg_occlusion_of(blockers, n, axis, lambda, st)
-                                         : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
+        vec2 occ = shared_list ? isg_occlusion_of(n, axis, lambda, st)
+                               : isg_occlusion(sp.position, n, axis, lambda, st, spheres);
         float mu = exp(log_mu);
         float full = isg_full_integral(lambda);
         float h = isg_normalization(lambda);
@@ -236,14 +242,14 @@ vec3 shade_point_radiance(ShadePoint sp) {
         }
         e = irr * ratio;
     }
-    // The hemisphere grid with its occluded patches, for `map` and for the lights.
+    // The hemisphere grid with its occluded patches (isg_mask), for `map` and for the lights; the
+    // specular lobes below reuse isg_mask after them.
     bool occluders = spheres > 0u || isg_thin_present() || isg_planes_present();
     IsgGrid hemi;
-    uint mask[ISG_MAX_SIDE];
-    if (occluders && (diffuse_mode == 2u || light_count > 0u)) hemi = isg_hemisphere_mask(sp.position, n, st, spheres, mask);
-    if (diffuse_mode == 2u) e = occluders ? isg_map_irradiance(n, hemi, mask) : irradiance_lookup(irradiance_map, n);
+    if (occluders && (diffuse_mode == 2u || light_count > 0u)) hemi = isg_hemisphere_mask(sp.position, n, st, spheres);
+    if (diffuse_mode == 2u) e = occluders ? isg_map_irradiance(n, hemi) : irradiance_lookup(irradiance_map, n);
     vec3 result = sp.material.diffuse.rgb / PI * e;
-    if (light_count > 0u) result += isg_lights(sp, occluders, hemi, mask);
+    if (light_count > 0u) result += isg_lights(sp, occluders, hemi);
 
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return result;
