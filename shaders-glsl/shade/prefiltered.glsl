@@ -14,6 +14,12 @@ vec3 prefiltered_level(sampler2D atlas, vec3 r, float level) {
     return textureLod(atlas, vec2(uv.x, (level + v) / levels), 0.0).rgb;
 }
 
+// The atlas level nearest to sharpness λ in log λ: one texture read per direction where
+// prefiltered_lookup blends two.
+float prefiltered_nearest_level(float lambda) {
+    return round(clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.prefiltered_levels) - 1.0));
+}
+
 // Irradiance E(n) from the pole-inclusive grid (engine_math::prefilter::IrradianceGrid): rows at
 // θ_j = π j/(rows − 1), so the first and last rows' centres sit on the poles.
 vec3 irradiance_lookup(sampler2D grid, vec3 n) {

@@ -102,11 +102,12 @@ float isg_row_weight(IsgGrid g, int i, uint bits) {
 
 // Diffuse mode `map`: E(n) minus the light of the occluded patches (isg_mask) of one P × P grid over
 // the hemisphere above n, each patch's radiance read from the prefiltered environment (filter width
-// matched to the patch) times its exact cosine-weighted solid angle.
+// matched to the patch: the atlas level nearest to it, one read per patch) times its exact
+// cosine-weighted solid angle.
 vec3 isg_map_irradiance(vec3 n, IsgGrid g) {
     vec3 irr = irradiance_lookup(irradiance_map, n);
-    // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12.
-    float lambda_f = 12.0 / (g.delta * g.delta);
+    // Box of width δ ↔ SG of the same variance: 1/λ = δ²/12 (P = 32: λ = 1245, level 6 at λ = 1024).
+    float level = prefiltered_nearest_level(12.0 / (g.delta * g.delta));
     vec3 occluded = vec3(0.0);
     for (int i = 0; i < g.side; ++i) {
         uint m = isg_mask[i];
@@ -123,7 +124,7 @@ vec3 isg_map_irradiance(vec3 n, IsgGrid g) {
             float ph = p0 + 0.5 * g.delta;
             vec3 dir = st_ * cos(ph) * g.x + row_dir + st_ * sin(ph) * g.z;
             float c = a * (cos(p0) - cos(p0 + g.delta));
-            occluded += prefiltered_lookup(prefiltered_env, dir, lambda_f) * c;
+            occluded += prefiltered_level(prefiltered_env, dir, level) * c;
         }
     }
     return max(irr - occluded, vec3(0.0));
