@@ -529,3 +529,23 @@ fn material_maps_blend_lafortune_per_vertex() {
     let e = format!("{:#}", user::scene_file(&p, None, &assets, &UserOptions::default()).err().unwrap());
     assert!(e.contains("model[0].material_map needs model[0].material"), "{e}");
 }
+
+/// `examples/lights/{1,2,4}.toml` (README: "Speed", cost against lights): the same bunny scene with 1, 2
+/// and 4 spherical lights, the first two `lamp`'s, and its 64 shipped spheres.
+#[test]
+fn lights_examples_differ_only_in_their_lights() {
+    let assets = demos::assets_dir();
+    let load = |n: usize| {
+        let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("../examples/lights/{n}.toml"));
+        user::scene_file(&file, None, &assets, &UserOptions::default()).unwrap_or_else(|e| panic!("{n}.toml: {e:#}"))
+    };
+    let scenes: Vec<_> = [1, 2, 4].map(load).into_iter().map(|u| u.scene).collect();
+    let lamp = demos::scenes::build("lamp", None).expect("lamp");
+    for (s, n) in scenes.iter().zip([1, 2, 4]) {
+        assert_eq!(s.lights.len(), n);
+        assert_eq!(s.lights[..n.min(2)], lamp.lights[..n.min(2)], "{n}.toml: lamp's lights first");
+        assert_eq!(s.instances.len(), scenes[0].instances.len());
+        let spheres: usize = s.blockers.spheres.iter().flatten().map(|v| v.len()).sum();
+        assert_eq!(spheres, 64, "{n}.toml: the bunny's 64 shipped spheres");
+    }
+}
