@@ -5,5 +5,5 @@
 #include "../target_pixel.glsl"
 
 float shexp_pixel_first_vertex() {
-    return imageLoad(gbuf_geometric, ivec2(gl_GlobalInvocationID.xy)).w;
+    return imageLoad(gbuf_geometric, target_pixel()).w;
 }

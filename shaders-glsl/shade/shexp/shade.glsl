@@ -89,10 +89,16 @@ void shexp_visit_weighted(ClusterEntry ce) {
     g_blockers += 1u;
 }
 
+#ifdef SHEXP_PIXEL
+// This invocation's pixel (target_pixel.glsl, included after this file).
+ivec2 target_pixel();
+#endif
+
 // The receiver's bake=on record: its vertex, or its pixel (row-major).
 uint shexp_bake_record() {
 #ifdef SHEXP_PIXEL
-    return (gl_GlobalInvocationID.y * frame.size.x + gl_GlobalInvocationID.x) * uint(SHEXP_BAKE_STRIDE);
+    uvec2 px = uvec2(target_pixel());
+    return (px.y * frame.size.x + px.x) * uint(SHEXP_BAKE_STRIDE);
 #else
     return gl_GlobalInvocationID.x * uint(SHEXP_BAKE_STRIDE);
 #endif
@@ -114,7 +120,8 @@ uint shexp_cluster_of_invocation() {
         return v >= 0.0 && v < float(vc_of.length()) ? vc_of[uint(v)] : 0u;
     }
     uint tiles_x = (frame.size.x + t - 1u) / t;
-    return (gl_GlobalInvocationID.y / t) * tiles_x + gl_GlobalInvocationID.x / t;
+    uvec2 px = uvec2(target_pixel());
+    return (px.y / t) * tiles_x + px.x / t;
 #else
     return vc_of[gl_GlobalInvocationID.x];
 #endif
