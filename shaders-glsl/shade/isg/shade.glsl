@@ -148,6 +148,7 @@ vec3 isg_map_irradiance(vec3 n, IsgGrid g) {
             while (b != 0u) {
                 int j = findLSB(b);
                 b &= b - 1u;
+                ISG_COUNT(4, 1);
                 float p0 = g.lo + float(j) * g.delta;
                 float ph = p0 + g.delta;
                 vec3 dir = st_ * cos(ph) * g.x + row_dir + st_ * sin(ph) * g.z;
