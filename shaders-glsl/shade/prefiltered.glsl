@@ -14,10 +14,15 @@ vec3 prefiltered_level(sampler2D atlas, vec3 r, float level) {
     return textureLod(atlas, vec2(uv.x, (level + v) / levels), 0.0).rgb;
 }
 
+// The atlas's level coordinate of sharpness λ: log_4 λ + 1, clamped to the levels.
+float prefiltered_level_coord(float lambda) {
+    return clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.prefiltered_levels) - 1.0);
+}
+
 // The atlas level nearest to sharpness λ in log λ: one texture read per direction where
 // prefiltered_lookup blends two.
 float prefiltered_nearest_level(float lambda) {
-    return round(clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.prefiltered_levels) - 1.0));
+    return round(prefiltered_level_coord(lambda));
 }
 
 // Irradiance E(n) from the pole-inclusive grid (engine_math::prefilter::IrradianceGrid): rows at
@@ -30,7 +35,7 @@ vec3 irradiance_lookup(sampler2D grid, vec3 n) {
 
 // Normalized prefiltered radiance around r for an SG of sharpness λ, interpolated in log λ.
 vec3 prefiltered_lookup(sampler2D atlas, vec3 r, float lambda) {
-    float t = clamp(log(lambda) / log(4.0) + 1.0, 0.0, float(frame.prefiltered_levels) - 1.0);
+    float t = prefiltered_level_coord(lambda);
     float k = floor(t);
     float f = t - k;
     vec3 a = prefiltered_level(atlas, r, k);
