@@ -128,8 +128,8 @@ vec4 isg_cap_coords(IsgGrid g, vec3 u) {
     return vec4(rho, uy, rho > 0.0 ? atan(uz, ux) : 0.0, atan(rho, uy));
 }
 
-// The rows [lo, hi] of the patches whose centre can lie in the cap of half-angle psi < π around the
-// unit direction u, and u's grid coordinates for isg_cap_row_bits (isg_cap_coords).
+// The rows [lo, hi] whose patch centres can lie in the cap of half-angle psi < π about the direction
+// with grid coordinates uc (isg_cap_coords; uc.w its θ).
 ivec2 isg_cap_rows(IsgGrid g, float psi, vec4 uc) {
     float last = float(g.side - 1);
     int i_lo = int(clamp(ceil((uc.w - psi - g.lo) / g.delta - 0.5), 0.0, last + 1.0));
