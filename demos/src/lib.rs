@@ -7,6 +7,7 @@ use std::path::PathBuf;
 pub mod bench;
 pub mod capture;
 pub mod characters;
+pub mod env_lights;
 pub mod export;
 pub mod gltf_writer;
 pub mod measure;

@@ -115,6 +115,12 @@ struct Args {
     #[arg(long, value_name = "KIND", default_value = "plugin", requires = "export",
           value_parser = demos::export::ExportBsdf::parse)]
     export_bsdf: demos::export::ExportBsdf,
+    #[command(flatten)]
+    env_lights: demos::env_lights::EnvLightArgs,
+    /// Split the scene's environment into lights and a residual (as `env_lights=on` does), print the lights and
+    /// write <out>/<name>-env-lights.png: the map over the residual, each light's cap outlined. No GPU is used.
+    #[arg(long, conflicts_with_all = ["window", "capture", "export", "spp", "frames", "memory"])]
+    env_lights_preview: bool,
 }
 
 /// `--exposure`: finite and positive (NaN, infinities, zero and negative values give a black or undefined image).
@@ -216,6 +222,10 @@ fn check_args(args: &Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let (out, name) = output_target(args);
+    if args.env_lights_preview {
+        check_output_dir(&out, "--out")?;
+        return check_output_file(&out.join(format!("{name}-env-lights.png")));
+    }
     if args.capture.is_some() {
         check_output_dir(&out.join("capture"), "--out")?;
         for ext in ["csv", "json", "svg"] {
@@ -254,6 +264,14 @@ fn run() -> anyhow::Result<()> {
     }
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
+    }
+    args.env_lights.apply(&mut scene);
+    if args.env_lights_preview {
+        let path = args.out.join(format!("{}-env-lights.png", args.name));
+        for line in demos::env_lights::write_preview(&scene, &path)? {
+            println!("{line}");
+        }
+        return Ok(());
     }
     let animation = if args.animate { loaded.animation } else { None };
     if args.animate && animation.is_none() {
@@ -328,6 +346,18 @@ fn render_on(
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(gpu, scene, settings)?;
     eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
+    if let Some(split) = renderer.scene.env_split_if_made() {
+        let d = &split.decomposition;
+        eprintln!(
+            "environment lights: {} light(s), {:.1} % of the environment's power (decomposed in {:.1} ms, residual \
+             maps {:.0} ms){}",
+            d.lights.len(),
+            100.0 * d.share,
+            split.decompose_seconds * 1e3,
+            split.build_seconds * 1e3,
+            d.note.as_ref().map(|n| format!("; {n}")).unwrap_or_default()
+        );
+    }
     let result = drive(gpu, &mut renderer, args, scene, animation, event_loop);
     renderer.destroy(gpu);
     result

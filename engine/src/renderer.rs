@@ -8,7 +8,9 @@ use crate::passes::blocker_bvh::BlockerBvhPass;
 use crate::passes::blocker_spheres::BlockerSpheresPass;
 use crate::passes::cloth::ClothPass;
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
-use crate::passes::shade::{parse_technique, ComposePass, Reads, ShadeInputs, ShadeTarget, Technique};
+use crate::passes::shade::{
+    parse_technique, wants_env_lights, ComposePass, Reads, ShadeInputs, ShadeTarget, Technique,
+};
 use crate::passes::skin::SkinPass;
 use crate::passes::thin_shells::ThinShellsPass;
 use crate::passes::tonemap::TonemapPass;
@@ -20,12 +22,21 @@ use engine_math::prefilter::PREFILTER_LEVELS;
 /// The technique a renderer uses unless told otherwise: the best soft shadows at their defaults.
 pub const DEFAULT_TECHNIQUE: &str = "isg";
 
-/// A technique made from its spec and prepared for a scene (destroyed again if `prepare` fails).
-fn make_technique(gpu: &Gpu, scene: &GpuScene, spec: &str) -> Result<(Box<dyn Technique>, Reads)> {
+/// A technique made from its spec and prepared for a scene (destroyed again if `prepare` fails). A technique
+/// that shades the environment as lights and a residual (`env_lights=on`) gets the scene's split,
+/// made here on first use.
+fn make_technique(gpu: &Gpu, scene: &mut GpuScene, spec: &str) -> Result<(Box<dyn Technique>, Reads)> {
     let (entry, options) = parse_technique(spec)?;
     let mut t = (entry.create)(gpu, &options)?;
-    match t.prepare(gpu, &ShadeInputs::new(scene, entry.name, entry.reads)) {
-        Ok(()) => Ok((t, entry.reads)),
+    let reads = Reads { env_lights: wants_env_lights(&options), ..entry.reads };
+    let prepared = (|| {
+        if reads.env_lights {
+            scene.env_split(gpu)?;
+        }
+        t.prepare(gpu, &ShadeInputs::new(scene, entry.name, reads)?)
+    })();
+    match prepared {
+        Ok(()) => Ok((t, reads)),
         Err(e) => {
             t.destroy(gpu);
             Err(e)
@@ -165,7 +176,7 @@ impl Renderer {
             p.compose = Some(ComposePass::new(gpu)?);
             p.tonemap = Some(TonemapPass::new(gpu)?);
             p.frame = Some(gpu.create_frame()?);
-            let scene = p.scene.as_ref().ok_or_else(|| GpuError::Other("internal: scene missing".into()))?;
+            let scene = p.scene.as_mut().ok_or_else(|| GpuError::Other("internal: scene missing".into()))?;
             p.technique = Some(make_technique(gpu, scene, &settings.technique)?);
             Ok(())
         })();
@@ -208,7 +219,7 @@ impl Renderer {
         if name == self.settings.technique {
             return Ok(());
         }
-        let (t, reads) = make_technique(gpu, &self.scene, name)?;
+        let (t, reads) = make_technique(gpu, &mut self.scene, name)?;
         let old = std::mem::replace(&mut self.technique, t);
         old.destroy(gpu);
         self.reads = reads;
@@ -228,15 +239,21 @@ impl Renderer {
         let environment = self.scene.environment.rotated(gpu, degrees)?;
         gpu.wait_idle()?;
         let old_environment = std::mem::replace(&mut self.scene.environment, environment);
-        match make_technique(gpu, &self.scene, &self.settings.technique) {
+        // The split (lights and residual) follows the environment: made again for the new one on demand.
+        let old_split = self.scene.take_env_split();
+        match make_technique(gpu, &mut self.scene, &self.settings.technique) {
             Ok((t, reads)) => {
                 std::mem::replace(&mut self.technique, t).destroy(gpu);
                 self.reads = reads;
                 old_environment.destroy(gpu);
+                if let Some(s) = old_split {
+                    s.destroy(gpu);
+                }
                 Ok(())
             }
             Err(e) => {
                 std::mem::replace(&mut self.scene.environment, old_environment).destroy(gpu);
+                self.scene.restore_env_split(gpu, old_split);
                 Err(e)
             }
         }
@@ -410,7 +427,7 @@ impl Renderer {
             thin_shells.record(rec, scene)?;
             let b = &scene.blockers;
             blocker_bvh.record(rec, &b.spheres, &b.bvh_nodes, b.sphere_count)?;
-            let inputs = ShadeInputs::new(scene, technique.name(), *reads);
+            let inputs = ShadeInputs::new(scene, technique.name(), *reads)?;
             if per_vertex {
                 technique.record(rec, &inputs, ShadeTarget::vertices(&scene.geometry))?;
             }

@@ -61,6 +61,7 @@ fn four_spheres(brdfs: &[&str], env: Option<LatLongMap>, kd: f32) -> Scene {
             .collect(),
         environment: env.unwrap_or(sky.environment),
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         blockers: Default::default(),
         camera: Camera { eye: Vec3::new(0.0, 0.5, 3.3), target: Vec3::ZERO, fov_y_degrees: 40.0 },

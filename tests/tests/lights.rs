@@ -32,6 +32,7 @@ fn scene(blocker: bool) -> Scene {
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: LatLongMap::constant(16, 8, [0.0; 3]),
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: vec![SphereLight { center: LIGHT.0, radius: LIGHT.1, radiance: Vec3::splat(LIGHT.2) }],
         blockers: SceneBlockers::default(),
         camera: Camera { eye: Vec3::new(0.0, 2.2, 2.4), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },

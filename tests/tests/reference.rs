@@ -128,6 +128,7 @@ fn plane_and_sphere(env: LatLongMap, albedo: f32) -> Scene {
         ],
         environment: env,
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         blockers: Default::default(),
         camera: Camera { eye: Vec3::new(0.0, 2.2, 2.6), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },

@@ -77,6 +77,8 @@ struct Args {
     /// --reference-cache the time is part of the key (the motion and the cloth simulation are deterministic).
     #[arg(long)]
     time: Option<f32>,
+    #[command(flatten)]
+    env_lights: demos::env_lights::EnvLightArgs,
 }
 
 fn main() {
@@ -97,6 +99,7 @@ fn run() -> Result<()> {
     if let Some(spec) = &args.brdf {
         demos::apply_brdf(&mut scene, spec)?;
     }
+    args.env_lights.apply(&mut scene);
     if args.no_plane_blockers {
         scene.blockers.planes.clear();
         scene.blockers.plane_meshes.clear();

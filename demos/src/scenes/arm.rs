@@ -93,6 +93,7 @@ pub fn scene(angle: f32) -> Scene {
         ],
         environment: super::sphere::sky(),
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         blockers: SceneBlockers {
             spheres: vec![Some(spheres(12))],

@@ -99,6 +99,7 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
         models,
         environment,
         environment_intensity: 0.6,
+        env_lights: Default::default(),
         lights: lights(),
         camera: Some(Camera { eye: Vec3::new(0.4, 2.3, 5.2), target: Vec3::new(0.0, 0.8, -0.3), fov_y_degrees: 45.0 }),
         ground: Some(user::Ground::plain(Material::diffuse(Vec3::new(0.45, 0.4, 0.33)))),

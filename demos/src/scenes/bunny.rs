@@ -52,6 +52,7 @@ pub fn scene(inputs: &SceneInputs) -> anyhow::Result<Scene> {
         ],
         environment,
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         // The ground is a plane blocker (a rectangle, from its mesh): below the horizon it hides the
         // environment from the bunny, as the triangles do in the ground truth.

@@ -465,6 +465,7 @@ fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
         instances,
         environment: load_environment(&env)?,
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         blockers: SceneBlockers { spheres, plane_meshes, ..Default::default() },
         camera: Camera { eye: Vec3::new(0.0, 1.75, 2.35), target: Vec3::new(0.0, 0.05, 0.05), fov_y_degrees: 42.0 },

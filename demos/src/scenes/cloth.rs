@@ -83,6 +83,7 @@ fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
         instances,
         environment,
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         // The bunnies' spheres (4 × 64), the ground a plane blocker, the cloth a thin shell that is simulated.
         blockers: SceneBlockers {

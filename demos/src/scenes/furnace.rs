@@ -27,6 +27,7 @@ pub fn scene(albedo: f32, radiance: f32) -> Scene {
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: LatLongMap::constant(64, 32, [radiance; 3]),
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         blockers: Default::default(),
         camera: Camera { eye: Vec3::new(0.0, 1.5, 0.01), target: Vec3::ZERO, fov_y_degrees: 40.0 },

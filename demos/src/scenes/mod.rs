@@ -46,6 +46,7 @@
 //!         ],
 //!         environment: load_environment(&env)?,
 //!         environment_intensity: 1.0,
+//!         env_lights: Default::default(),
 //!         lights: vec![SphereLight { center: Vec3::new(1.0, 2.0, 0.5), radius: 0.2, radiance: Vec3::splat(20.0) }],
 //!         // Blocker spheres per mesh in object space (None: casts no sphere shadow); a real mesh gets a fitted
 //!         // set: engine::scene::blockers::fitted_spheres(&mesh, &FitSettings::default(), &cache_path).

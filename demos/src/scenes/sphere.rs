@@ -42,6 +42,7 @@ pub fn scene(stacks: u32) -> Scene {
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: sky(),
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         blockers: Default::default(),
         camera: Camera { eye: Vec3::new(0.0, 0.8, 3.0), target: Vec3::ZERO, fov_y_degrees: 45.0 },

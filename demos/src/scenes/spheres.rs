@@ -48,6 +48,7 @@ fn build(inputs: &SceneInputs) -> anyhow::Result<Scene> {
         instances,
         environment,
         environment_intensity: intensity,
+        env_lights: Default::default(),
         lights: vec![LIGHT],
         // The unit sphere in the mesh's object space: each instance's transform places it on its ball. The
         // ground is a plane blocker, as in `bunny`.

@@ -11,6 +11,7 @@ use super::{shapes, Pose};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use engine::blockers::fit::FitSettings;
 use engine::blockers::Sphere;
+use engine::math::env_lights::{EnvLightParams, MAX_ENV_LIGHTS};
 use engine::math::envmap::LatLongMap;
 use engine::scene::material_map::{MaterialMap, MaterialMapping};
 use engine::scene::{load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight};
@@ -191,6 +192,8 @@ pub struct Composition {
     pub models: Vec<Placement>,
     pub environment: LatLongMap,
     pub environment_intensity: f32,
+    /// How the environment is split into lights and a residual (`[environment] lights`, …).
+    pub env_lights: EnvLightParams,
     pub lights: Vec<SphereLight>,
     pub camera: Option<Camera>,
     /// A ground plane under the models' rest bounds.
@@ -264,6 +267,7 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
         instances: Vec::new(),
         environment: c.environment,
         environment_intensity: c.environment_intensity,
+        env_lights: c.env_lights,
         lights: c.lights,
         blockers: SceneBlockers::default(),
         camera: Camera { eye: Vec3::Z, target: Vec3::ZERO, fov_y_degrees: 45.0 },
@@ -418,6 +422,7 @@ pub fn single_model(path: &Path, env: Option<&Path>, assets: &Path, opts: &UserO
         }],
         environment: default_environment(env, assets)?,
         environment_intensity: 1.0,
+        env_lights: Default::default(),
         lights: Vec::new(),
         camera: None,
         ground: Some(Ground::plain(Material::diffuse(Vec3::splat(0.6)))),
@@ -461,6 +466,55 @@ pub struct EnvironmentSpec {
     pub intensity: Option<f32>,
     /// Degrees about +y.
     pub rotation: Option<f32>,
+    /// Environment lights (the bright regions taken out as spherical lights, for the techniques whose
+    /// `env_lights` option is on): at most this many, K (0: none), or `false` for none [default: 8].
+    pub lights: Option<LightsKey>,
+    /// A texel is bright above this many times the mean radiance [default: 4].
+    pub light_threshold: Option<f64>,
+    /// A light must carry at least this share of the power, in % [default: 1].
+    pub light_share: Option<f64>,
+    /// Bright regions wider than this angular radius (degrees) are split into several lights [default: 15].
+    pub light_radius: Option<f64>,
+}
+
+/// `environment.lights`: a count, or `false` (none) / `true` (the default count).
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
+#[serde(untagged)]
+pub enum LightsKey {
+    On(bool),
+    Count(i64),
+}
+
+impl EnvironmentSpec {
+    /// The decomposition's parameters from the keys given (the defaults for the others), each range-checked.
+    pub fn env_lights(&self) -> Result<EnvLightParams> {
+        let mut p = EnvLightParams::default();
+        match self.lights {
+            None | Some(LightsKey::On(true)) => {}
+            Some(LightsKey::On(false)) => p.max_lights = 0,
+            Some(LightsKey::Count(k)) => {
+                ensure!(
+                    (0..=MAX_ENV_LIGHTS as i64).contains(&k),
+                    "environment.lights: {k} is not in 0..={MAX_ENV_LIGHTS} (or true/false)"
+                );
+                p.max_lights = k as usize;
+            }
+        }
+        if let Some(t) = self.light_threshold {
+            ensure!(t.is_finite() && t > 1.0 && t <= 1e6, "environment.light_threshold: {t} is not in (1, 1e6]");
+            p.threshold = t;
+        }
+        if let Some(s) = self.light_share {
+            ensure!(s.is_finite() && s > 0.0 && s <= 100.0, "environment.light_share: {s} % is not in (0, 100]");
+            p.min_share = s / 100.0;
+        }
+        if let Some(r) = self.light_radius {
+            ensure!(r.is_finite() && r > 0.0 && r <= 90.0, "environment.light_radius: {r}° is not in (0, 90]");
+            p.max_radius = r.to_radians();
+        }
+        p.check().map_err(|e| anyhow!("environment: {e}"))?;
+        Ok(p)
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -659,8 +713,9 @@ fn build_scene_file(
         models.push(Placement { model, file, transform, material, map, blockers, choice });
     }
     ensure!(clip_found, "--clip {}: no model of the scene has that clip", opts.clip.as_deref().unwrap_or(""));
-    let (mut environment, mut intensity) = (None, 1.0);
+    let (mut environment, mut intensity, mut env_lights) = (None, 1.0, EnvLightParams::default());
     if let Some(e) = &spec.environment {
+        env_lights = e.env_lights()?;
         if let Some(i) = e.intensity {
             ensure!(i.is_finite() && i >= 0.0, "environment.intensity: {i} is not a finite number ≥ 0");
             intensity = i;
@@ -717,7 +772,8 @@ fn build_scene_file(
         }
         None => Some(Ground::plain(Material::diffuse(Vec3::splat(0.6)))),
     };
-    let composition = Composition { models, environment, environment_intensity: intensity, lights, camera, ground };
+    let composition =
+        Composition { models, environment, environment_intensity: intensity, env_lights, lights, camera, ground };
     assemble(composition, opts)
 }
 

@@ -4,6 +4,7 @@
 //! The formulas follow DESIGN.md §3 (which restores the symbols the paper texts lost).
 
 pub mod brdf;
+pub mod env_lights;
 pub mod envmap;
 pub mod isg;
 pub mod linalg;

@@ -3,6 +3,9 @@
 //! for its SH projection (filled on first use, e.g. by SHEXP, and kept for the scene's lifetime).
 
 use crate::gpu::{Buffer, BufferDesc, Gpu, Image, ImageDesc, ImageFormat, Result};
+use crate::resources::LightResources;
+use crate::scene::SphereLight;
+use engine_math::env_lights::{decompose, EnvDecomposition, EnvLightParams};
 use engine_math::envmap::LatLongMap;
 use engine_math::prefilter::{sg_prefiltered_map, IrradianceGrid, PREFILTER_LEVELS};
 use engine_math::sh::{project_latlong, Window};
@@ -151,4 +154,77 @@ impl EnvironmentResources {
             gpu.destroy_buffer(p.buffer);
         }
     }
+}
+
+/// The lights are placed this many scene radii from the scene's centre: far enough that their directions
+/// barely change across the scene (parallax 1/256 rad at its rim), near enough for f32 (DESIGN §7).
+pub const ENV_LIGHT_DISTANCE: f32 = 256.0;
+
+/// The environment split into spherical lights and a residual ([`engine_math::env_lights`]), for the
+/// techniques whose `env_lights` option is on: they read [`EnvSplit::residual`] as their environment and
+/// [`EnvSplit::lights`] (the scene's own lights, then the environment's) as their lights. Made on first
+/// request and kept until the environment changes.
+pub struct EnvSplit {
+    /// The decomposition on the CPU (the lights as directions and cap sizes, the residual map, what was found).
+    pub decomposition: EnvDecomposition,
+    /// The residual as an environment: its maps, irradiance grid and SH projections.
+    pub residual: EnvironmentResources,
+    /// The scene's lights followed by the environment's, as spheres [`ENV_LIGHT_DISTANCE`] scene radii away.
+    pub lights: LightResources,
+    /// Seconds the decomposition itself took on the CPU (not the residual's maps).
+    pub decompose_seconds: f64,
+    /// Seconds the residual's maps and the lights' buffer took.
+    pub build_seconds: f64,
+}
+
+impl EnvSplit {
+    /// Split `environment` by `params` and upload the residual and the lights (`scene_lights` first), placed
+    /// about the scene's bounding sphere (`center`, `radius`).
+    pub fn new(
+        gpu: &Gpu,
+        environment: &EnvironmentResources,
+        params: &EnvLightParams,
+        scene_lights: &[SphereLight],
+        center: glam::Vec3,
+        radius: f32,
+    ) -> Result<Self> {
+        params.check().map_err(crate::gpu::GpuError::Other)?;
+        let t0 = std::time::Instant::now();
+        let decomposition = decompose(&environment.cpu, params);
+        let decompose_seconds = t0.elapsed().as_secs_f64();
+        let t1 = std::time::Instant::now();
+        let lights = env_sphere_lights(&decomposition, center, radius);
+        let all: Vec<SphereLight> = scene_lights.iter().copied().chain(lights).collect();
+        let residual = EnvironmentResources::new(gpu, &decomposition.residual, 1.0)?;
+        let lights = match LightResources::new(gpu, &all) {
+            Ok(l) => l,
+            Err(e) => {
+                residual.destroy(gpu);
+                return Err(e);
+            }
+        };
+        Ok(Self { decomposition, residual, lights, decompose_seconds, build_seconds: t1.elapsed().as_secs_f64() })
+    }
+
+    pub fn destroy(self, gpu: &Gpu) {
+        self.residual.destroy(gpu);
+        self.lights.destroy(gpu);
+    }
+}
+
+/// The decomposition's lights as spheres [`ENV_LIGHT_DISTANCE`] × `radius` from `center`, each subtending its
+/// cap from there.
+pub fn env_sphere_lights(d: &EnvDecomposition, center: glam::Vec3, radius: f32) -> Vec<SphereLight> {
+    let distance = ENV_LIGHT_DISTANCE as f64 * (radius as f64).max(1e-3);
+    d.lights
+        .iter()
+        .map(|l| {
+            let (c, r) = l.sphere(center.as_dvec3().to_array(), distance);
+            SphereLight {
+                center: glam::DVec3::from(c).as_vec3(),
+                radius: r as f32,
+                radiance: glam::DVec3::from(l.radiance).as_vec3(),
+            }
+        })
+        .collect()
 }

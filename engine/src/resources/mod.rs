@@ -16,7 +16,7 @@ pub mod thin;
 
 use crate::gpu::{Buffer, BufferDesc, Gpu, GpuError, Result};
 use crate::scene::Scene;
-pub use environment::EnvironmentResources;
+pub use environment::{EnvSplit, EnvironmentResources};
 use layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 pub use lights::LightResources;
 use thin::{GpuThinCluster, GpuThinTriangle};
@@ -98,9 +98,46 @@ pub struct GpuScene {
     pub lights: LightResources,
     pub blockers: BlockerResources,
     pub thin: ThinResources,
+    /// How the environment splits into lights and a residual ([`Scene::env_lights`]).
+    pub env_params: engine_math::env_lights::EnvLightParams,
+    /// The scene's bounding sphere (centre, radius) at upload: where the environment's lights are placed.
+    pub bounds: (glam::Vec3, f32),
+    /// The split environment, made by [`GpuScene::env_split`] on first request (a technique with
+    /// `env_lights=on`) and dropped when the environment changes.
+    env_split: Option<EnvSplit>,
 }
 
 impl GpuScene {
+    /// The environment split into lights and a residual, made on the first call and kept.
+    pub fn env_split(&mut self, gpu: &Gpu) -> Result<&EnvSplit> {
+        if self.env_split.is_none() {
+            let (center, radius) = self.bounds;
+            let split = EnvSplit::new(gpu, &self.environment, &self.env_params, &self.lights.cpu, center, radius)?;
+            if let Some(note) = &split.decomposition.note {
+                log::warn!("{note}");
+            }
+            self.env_split = Some(split);
+        }
+        self.env_split.as_ref().ok_or_else(|| GpuError::Other("internal: environment split missing".into()))
+    }
+
+    /// The split environment if it has been made.
+    pub fn env_split_if_made(&self) -> Option<&EnvSplit> {
+        self.env_split.as_ref()
+    }
+
+    /// Take the split out (the environment is changing); the caller destroys or restores it.
+    pub fn take_env_split(&mut self) -> Option<EnvSplit> {
+        self.env_split.take()
+    }
+
+    /// Put back a split taken out by [`Self::take_env_split`], destroying any made since.
+    pub fn restore_env_split(&mut self, gpu: &Gpu, split: Option<EnvSplit>) {
+        if let Some(old) = std::mem::replace(&mut self.env_split, split) {
+            old.destroy(gpu);
+        }
+    }
+
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Result<Self> {
         let mut vertices = Vec::new();
         let mut indices = Vec::new();
@@ -242,7 +279,24 @@ impl GpuScene {
                 return Err(e);
             }
         };
-        let mut out = Self { geometry, frame, materials: mats, environment, lights, blockers, thin };
+        let (lo, hi) = scene.bounds();
+        let bounds = if lo.is_finite() && hi.is_finite() {
+            (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3))
+        } else {
+            (glam::Vec3::ZERO, 1.0)
+        };
+        let mut out = Self {
+            geometry,
+            frame,
+            materials: mats,
+            environment,
+            lights,
+            blockers,
+            thin,
+            env_params: scene.env_lights,
+            bounds,
+            env_split: None,
+        };
         let written = out.geometry.objects.write(&objects).and_then(|_| out.geometry.bones.write(&blocker_data.bones));
         if let Err(e) = written {
             out.destroy(gpu);
@@ -259,6 +313,9 @@ impl GpuScene {
         self.lights.destroy(gpu);
         self.blockers.destroy(gpu);
         self.thin.destroy(gpu);
+        if let Some(s) = self.env_split {
+            s.destroy(gpu);
+        }
     }
 }
 

@@ -413,6 +413,9 @@ pub struct Scene {
     pub environment_intensity: f32,
     /// Spherical lights (may be empty).
     pub lights: Vec<SphereLight>,
+    /// How the environment's bright regions become spherical lights for the techniques whose `env_lights`
+    /// option is on ([`engine_math::env_lights`]; `max_lights = 0`: never).
+    pub env_lights: engine_math::env_lights::EnvLightParams,
     /// Blocker sphere sets per mesh, skins and bone matrices (`Default`: none).
     pub blockers: SceneBlockers,
     pub camera: Camera,

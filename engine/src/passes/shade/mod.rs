@@ -62,6 +62,10 @@ pub struct Reads {
     pub thin: bool,
     /// Vertices, indices and instance transforms (e.g. the reference's triangle BVH).
     pub geometry: bool,
+    /// The environment split into lights and a residual ([`crate::resources::EnvSplit`]): the technique's
+    /// environment is the residual and its lights include the environment's. Not set in a registry entry:
+    /// the renderer sets it for an instance whose spec says `env_lights=on` ([`env_lights_option`]).
+    pub env_lights: bool,
 }
 
 impl TechniqueEntry {
@@ -75,6 +79,24 @@ impl TechniqueEntry {
         s.push_str(&options::help_lines(self.options, "               "));
         s
     }
+}
+
+/// The `env_lights` option of the techniques that shade an environment (issue 34): `on` takes the
+/// environment's bright regions as spherical lights plus a residual map ([`crate::resources::EnvSplit`]),
+/// `off` shades the map whole. `default` is what the technique's measurements favour.
+pub const fn env_lights_option(default: &'static str) -> OptionSpec {
+    OptionSpec {
+        key: "env_lights",
+        aliases: &[],
+        kind: options::Kind::Choice(&["off", "on"]),
+        default: Some(default),
+        help: "on: the environment's bright regions as spherical lights (the scene's environment.lights, --env-lights) plus a residual map; off: the environment whole",
+    }
+}
+
+/// Whether parsed options ask for the split environment (`env_lights=on`).
+pub fn wants_env_lights(options: &Options) -> bool {
+    options.get("env_lights") == Some(options::Value::Choice("on"))
 }
 
 /// The registry entry of `name`.
@@ -146,7 +168,10 @@ pub struct ShadeInputs<'a> {
     pub technique: &'static str,
     pub frame: &'a Buffer,
     pub materials: &'a Buffer,
+    /// The environment the technique shades with: the scene's, or with `env_lights` its residual.
     pub environment: &'a EnvironmentResources,
+    /// The scene's environment texture, always whole: what the background shows.
+    pub background: &'a Image,
     lights: Option<&'a LightResources>,
     blockers: Option<&'a BlockerResources>,
     thin: Option<&'a ThinResources>,
@@ -154,18 +179,30 @@ pub struct ShadeInputs<'a> {
 }
 
 impl<'a> ShadeInputs<'a> {
-    /// The parts of `scene` that `technique` names in `reads`.
-    pub fn new(scene: &'a GpuScene, technique: &'static str, reads: Reads) -> Self {
-        Self {
+    /// The parts of `scene` that `technique` names in `reads`. With `reads.env_lights` the environment is the
+    /// split's residual and the lights the split's ([`GpuScene::env_split`] must have been made: an error
+    /// otherwise).
+    pub fn new(scene: &'a GpuScene, technique: &'static str, reads: Reads) -> Result<Self> {
+        let (environment, lights) = match (reads.env_lights, scene.env_split_if_made()) {
+            (false, _) => (&scene.environment, &scene.lights),
+            (true, Some(split)) => (&split.residual, &split.lights),
+            (true, None) => {
+                return Err(GpuError::Other(format!(
+                    "internal: technique '{technique}' reads the environment's lights before they were made"
+                )))
+            }
+        };
+        Ok(Self {
             technique,
             frame: &scene.frame,
             materials: &scene.materials,
-            environment: &scene.environment,
-            lights: reads.lights.then_some(&scene.lights),
+            environment,
+            background: &scene.environment.image,
+            lights: reads.lights.then_some(lights),
             blockers: reads.blockers.then_some(&scene.blockers),
             thin: reads.thin.then_some(&scene.thin),
             geometry: reads.geometry.then_some(&scene.geometry),
-        }
+        })
     }
 
     fn unnamed(&self, what: &str) -> GpuError {
@@ -300,7 +337,7 @@ impl TargetPipelines {
         let mut b = vec![
             Binding::buffer("FrameBuf", inputs.frame),
             Binding::buffer("Materials", inputs.materials),
-            Binding::sampled("env_map", &inputs.environment.image),
+            Binding::sampled("env_map", inputs.background),
         ];
         b.extend_from_slice(extra);
         match target {

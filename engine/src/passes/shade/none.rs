@@ -9,8 +9,8 @@ use crate::gpu::{Binding, Gpu, Recorder, Result};
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "none",
     summary: "unshadowed: irradiance grid + SG-prefiltered environment, spherical lights in closed form",
-    options: &[],
-    reads: Reads { lights: true, blockers: false, thin: false, geometry: false },
+    options: &[super::env_lights_option("off")],
+    reads: Reads { lights: true, blockers: false, thin: false, geometry: false, env_lights: false },
     // The irradiance grid is exact up to bilinear interpolation of a smooth function: the furnace is
     // flat to f32 rounding.
     tolerances: Tolerances { furnace: 1e-3, unoccluded_vs_none: 0.0, one_sphere: None, one_plane: None, samples: 0 },

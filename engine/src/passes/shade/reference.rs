@@ -26,7 +26,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "reference",
     summary: "Monte Carlo ground truth (environment, light and BRDF sampling; triangles, spheres or unoccluded)",
     options: &[],
-    reads: Reads { lights: true, blockers: true, thin: true, geometry: true },
+    reads: Reads { lights: true, blockers: true, thin: true, geometry: true, env_lights: false },
     tolerances: Tolerances {
         // Monte Carlo at `samples` per pixel: a few standard errors of the estimate.
         furnace: 0.02,

@@ -43,7 +43,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "isg",
     summary: "integral spherical Gaussians (Iwasaki et al. 2012): soft shadows from the sphere set and thin shells",
     options: OPTIONS,
-    reads: Reads { lights: true, blockers: true, thin: true, geometry: false },
+    reads: Reads { lights: true, blockers: true, thin: true, geometry: false, env_lights: false },
     tolerances: Tolerances {
         // No blockers: the map diffuse equals `none` exactly (same irradiance grid, no occluded patch).
         furnace: 1e-3,

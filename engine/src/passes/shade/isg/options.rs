@@ -121,6 +121,7 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("off"),
         help: "cost model: show per-point work counts instead of radiance: traversal (BVH nodes of the hemisphere traversal, of the lobe traversals, caps marked) or marking (cap rows, map patch lookups, Ŝ corners)",
     },
+    crate::passes::shade::env_lights_option("off"),
 ];
 
 impl IsgOptions {

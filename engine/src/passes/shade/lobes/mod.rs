@@ -167,6 +167,7 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("all"),
         help: "cost split (paper Table 1; a timing variant, its image is not the technique's): every receiver stops after lobes (reflectance and light lobes, R × L, U), gather (+ the masks' blocker cuts), mask (+ the quad-trees), leaves (+ the shadow leaves' lobes) or all (+ the visibility products and integrals)",
     },
+    super::env_lights_option("off"),
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `LOBES_PHASE` k in shade.glsl.
@@ -176,7 +177,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "lobes",
     summary: "cosine lobes (Meunier et al. 2009): spherical lights as cap lobes, quad-tree visibility masks, products from tables; environment × first-order lobe occlusion",
     options: OPTIONS,
-    reads: Reads { lights: true, blockers: true, thin: false, geometry: false },
+    reads: Reads { lights: true, blockers: true, thin: false, geometry: false, env_lights: false },
     // Measured by tests/tests/techniques.rs at the defaults: furnace 3.01e-4 (the irradiance grid, as
     // `isg`), no blockers vs `none` 0 (the visibility is exactly 1: the same shared terms), one sphere
     // 1.87 % (the environment mask at depth 5: cells about the normal ~10° wide, half-weight partial

@@ -151,13 +151,14 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("tiles"),
         help: "per-pixel receiver clusters (cluster > 0): tiles (T×T screen tiles) or world (the per-vertex clusters: a pixel joins its triangle's first vertex's cluster, whose bounding sphere grows to hold the cluster's triangles)",
     },
+    super::env_lights_option("off"),
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "shexp",
     summary: "SH exponentiation (Ren et al. 2006): log-space sphere blockers, HYB/OL/PS* exp; diffuse only, glossy = unshadowed lobe × diffuse visibility ratio",
     options: OPTIONS,
-    reads: Reads { lights: true, blockers: true, thin: false, geometry: true },
+    reads: Reads { lights: true, blockers: true, thin: false, geometry: true, env_lights: false },
     // Measured by tests/tests/techniques.rs at the defaults (order 4, HYB): furnace 4.65e-4 (the f32
     // projection of a constant map), no blockers vs `none` 2.89e-3 (the windowed order-4 lighting on
     // the sphere scene's smooth sky), one sphere 0.378 %, the ball above a half-space 0.023 % and above
