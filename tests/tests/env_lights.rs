@@ -131,7 +131,8 @@ fn every_technique_renders_with_the_environment_lights() {
 fn turning_the_environment_turns_its_lights() {
     let gpu = engine_tests::gpu();
     let scene = plane(envmap("sunset.exr"));
-    let settings = RenderSettings { width: 16, height: 12, technique: "none:env_lights=on".into(), ..Default::default() };
+    let settings =
+        RenderSettings { width: 16, height: 12, technique: "none:env_lights=on".into(), ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
     let first = r.scene.env_split_if_made().expect("split").decomposition.lights[0];
     r.set_environment_rotation(&gpu, 90.0).expect("rotate");

@@ -360,6 +360,15 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
     let mut residual = map.clone();
     let mut lights = Vec::with_capacity(candidates.len());
     let full_sa: Vec<f64> = (0..map.height).map(|r| texel_solid_angle(r, map.width, map.height)).collect();
+    // Texel directions from per-row (sin θ, cos θ) and per-column (cos φ, sin φ): no trigonometry per texel.
+    let rows: Vec<(f64, f64)> =
+        (0..map.height).map(|r| (PI * (r as f64 + 0.5) / map.height as f64).sin_cos()).collect();
+    let cols: Vec<(f64, f64)> = (0..map.width)
+        .map(|c| {
+            let (s, co) = (2.0 * PI * (c as f64 + 0.5) / map.width as f64).sin_cos();
+            (co, s)
+        })
+        .collect();
     let mut moved = 0.0;
     for &(_, k) in &candidates {
         let (region, piece) = &pieces[k];
@@ -377,7 +386,8 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
                     let excess = [0, 1, 2].map(|k| (orig[k] - texel[k] as f64).max(0.0));
                     let sa = full_sa[r];
                     let weight = luminance(excess) * sa;
-                    let dir = map.texel_direction(c, r);
+                    let ((st, ct), (cp, sp)) = (rows[r], cols[c]);
+                    let dir = [st * cp, ct, st * sp];
                     for k in 0..3 {
                         power[k] += excess[k] * sa;
                         sum[k] += weight * dir[k];

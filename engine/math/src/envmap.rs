@@ -137,23 +137,28 @@ impl LatLongMap {
     pub fn downsample(&self, factor: usize) -> Self {
         assert!(factor >= 1 && self.width.is_multiple_of(factor) && self.height.is_multiple_of(factor));
         let (w, h) = (self.width / factor, self.height / factor);
+        // Every texel of a row has the same solid angle: one weight per source row.
+        let row_sa: Vec<f64> = (0..self.height).map(|r| texel_solid_angle(r, self.width, self.height)).collect();
         let mut texels = vec![[0.0f32; 3]; w * h];
+        let mut acc = vec![[0.0f64; 3]; w];
         for row in 0..h {
-            for col in 0..w {
-                let mut acc = [0.0f64; 3];
-                let mut wsum = 0.0;
-                for sr in 0..factor {
-                    let r = row * factor + sr;
-                    let sa = texel_solid_angle(r, self.width, self.height);
-                    for sc in 0..factor {
-                        let t = self.texel(col * factor + sc, r);
+            acc.iter_mut().for_each(|a| *a = [0.0; 3]);
+            let mut wsum = 0.0;
+            for sr in 0..factor {
+                let r = row * factor + sr;
+                let sa = row_sa[r];
+                let src = &self.texels[r * self.width..(r + 1) * self.width];
+                for (col, a) in acc.iter_mut().enumerate() {
+                    for t in &src[col * factor..(col + 1) * factor] {
                         for k in 0..3 {
-                            acc[k] += t[k] as f64 * sa;
+                            a[k] += t[k] as f64 * sa;
                         }
-                        wsum += sa;
                     }
                 }
-                texels[row * w + col] = acc.map(|a| (a / wsum) as f32);
+                wsum += sa * factor as f64;
+            }
+            for (col, a) in acc.iter().enumerate() {
+                texels[row * w + col] = a.map(|x| (x / wsum) as f32);
             }
         }
         Self { width: w, height: h, texels }

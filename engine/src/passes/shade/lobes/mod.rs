@@ -167,7 +167,7 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("all"),
         help: "cost split (paper Table 1; a timing variant, its image is not the technique's): every receiver stops after lobes (reflectance and light lobes, R × L, U), gather (+ the masks' blocker cuts), mask (+ the quad-trees), leaves (+ the shadow leaves' lobes) or all (+ the visibility products and integrals)",
     },
-    super::env_lights_option("off"),
+    super::env_lights_option("on"),
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `LOBES_PHASE` k in shade.glsl.

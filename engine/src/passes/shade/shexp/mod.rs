@@ -151,7 +151,7 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("tiles"),
         help: "per-pixel receiver clusters (cluster > 0): tiles (T×T screen tiles) or world (the per-vertex clusters: a pixel joins its triangle's first vertex's cluster, whose bounding sphere grows to hold the cluster's triangles)",
     },
-    super::env_lights_option("off"),
+    super::env_lights_option("on"),
 ];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
