@@ -13,17 +13,17 @@ use std::path::Path;
 pub struct EnvLightArgs {
     /// Environment lights: at most K of the environment's bright regions become spherical lights (0: none) for
     /// the techniques run with `env_lights=on` [default: the scene's, else 8].
-    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=MAX_ENV_LIGHTS as i64))]
+    #[arg(long, value_name = "K", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..=MAX_ENV_LIGHTS as i64))]
     pub env_lights: Option<u32>,
     /// A texel is bright above this many times the environment's mean radiance, in (1, 1e6] [default: 4].
-    #[arg(long, value_name = "X", value_parser = parse_threshold)]
+    #[arg(long, value_name = "X", allow_negative_numbers = true, value_parser = parse_threshold)]
     pub env_light_threshold: Option<f64>,
     /// An environment light carries at least this share of the map's power, in percent, (0, 100] [default: 1].
-    #[arg(long, value_name = "PERCENT", value_parser = parse_share)]
+    #[arg(long, value_name = "PERCENT", allow_negative_numbers = true, value_parser = parse_share)]
     pub env_light_share: Option<f64>,
     /// Bright regions wider than this angular radius are split into several lights, degrees in (0, 90]
     /// [default: 15].
-    #[arg(long, value_name = "DEG", value_parser = parse_radius)]
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true, value_parser = parse_radius)]
     pub env_light_radius: Option<f64>,
 }
 
@@ -185,7 +185,7 @@ pub fn write_preview(scene: &Scene, path: &Path) -> anyhow::Result<Vec<String>> 
     let t0 = std::time::Instant::now();
     let d = engine::math::env_lights::decompose(&scaled, &scene.env_lights);
     let seconds = t0.elapsed().as_secs_f64();
-    let width = scaled.width.clamp(2, 1024);
+    let width = scaled.width.clamp(2, 512);
     let rgba = preview(&scaled, &d, width);
     if let Some(dir) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;

@@ -448,6 +448,8 @@ fn render_frames(
     let total_spp: u32 = schedule.map_or(0, |s| s.iter().sum());
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
     let mut after_first = None;
+    // The environment's split (env_lights=on): its CPU time at upload and, with --env-spin, at every turn.
+    let mut split_ms: Vec<(f64, f64)> = Vec::new();
     let mut progress = Progress::new(frames);
     for f in 0..frames {
         if let Some(a) = animation {
@@ -458,6 +460,11 @@ fn render_frames(
         }
         if let (Some(s), Some(r)) = (schedule, engine::converge::reference_mut(renderer)) {
             r.set_samples_per_frame(s[f as usize])?;
+        }
+        if f == 0 || args.env_spin.is_some() {
+            if let Some(split) = renderer.scene.env_split_if_made() {
+                split_ms.push((split.decompose_seconds * 1e3, split.build_seconds * 1e3));
+            }
         }
         let timings = renderer.render(gpu)?;
         if f == 0 {
@@ -502,6 +509,19 @@ fn render_frames(
         println!("  {name:<24} {med:>10.3} ms");
     }
     println!("  {:<24} {total:>10.3} ms", "total");
+    if !split_ms.is_empty() {
+        let median = |k: usize| {
+            let mut v: Vec<f64> = split_ms.iter().map(|m| if k == 0 { m.0 } else { m.1 }).collect();
+            v.sort_by(|a, b| a.total_cmp(b));
+            v[v.len() / 2]
+        };
+        println!(
+            "environment lights (CPU, median of {} split(s)): decomposition {:.3} ms, residual maps and lights {:.1} ms",
+            split_ms.len(),
+            median(0),
+            median(1)
+        );
+    }
     let per_vertex = renderer.settings.per_vertex;
     if let Some(r) = engine::converge::reference_mut(renderer) {
         let stats = r.stats(gpu, per_vertex)?;
