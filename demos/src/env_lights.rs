@@ -130,7 +130,8 @@ pub fn preview(map: &LatLongMap, d: &EnvDecomposition, width: usize) -> Vec<u8> 
         ((x / (1.0 + x)).powf(1.0 / 2.2) * 255.0).round() as u8
     };
     let mut out = vec![0u8; w * 2 * h * 4];
-    for (half, m) in [map, &d.residual].into_iter().enumerate() {
+    let residual = d.residual(map);
+    for (half, m) in [map, &residual].into_iter().enumerate() {
         for r in 0..h {
             for c in 0..w {
                 let dir =

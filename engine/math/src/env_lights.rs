@@ -130,8 +130,9 @@ impl EnvLight {
 pub struct EnvDecomposition {
     /// Largest share first.
     pub lights: Vec<EnvLight>,
-    /// The map with the lights' excess taken out (same size as the input).
-    pub residual: LatLongMap,
+    /// The residual as the texels that differ from the map: (texel index, residual value), the lights'
+    /// pieces only (a small part of the map; [`EnvDecomposition::residual`] applies them to a copy).
+    pub edits: Vec<(u32, [f32; 3])>,
     /// Candidates that qualified (by share); `lights.len()` is the smaller of this and K.
     pub qualified: usize,
     /// Bright regions found before splitting and qualifying.
@@ -140,6 +141,17 @@ pub struct EnvDecomposition {
     pub share: f64,
     /// Set when fewer lights were found than asked for (the decomposition stopped early), for the user.
     pub note: Option<String>,
+}
+
+impl EnvDecomposition {
+    /// The residual map: `map` (the one decomposed) with the lights' excess taken out.
+    pub fn residual(&self, map: &LatLongMap) -> LatLongMap {
+        let mut r = map.clone();
+        for &(i, t) in &self.edits {
+            r.texels[i as usize] = t;
+        }
+        r
+    }
 }
 
 /// One bright texel of the detection copy, with its excess over its region's fill.
@@ -254,7 +266,7 @@ fn neighbours(c: usize, r: usize, w: usize, h: usize) -> impl Iterator<Item = (u
 pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition {
     let whole = |note: Option<String>, regions| EnvDecomposition {
         lights: Vec::new(),
-        residual: map.clone(),
+        edits: Vec::new(),
         qualified: 0,
         regions,
         share: 0.0,
@@ -357,7 +369,7 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
     let qualified = candidates.len();
     candidates.truncate(params.max_lights);
     // 5. Full resolution: residual = min(texel, fill) inside the selected pieces; the lights from the excess.
-    let mut residual = map.clone();
+    let mut edits: Vec<(u32, [f32; 3])> = Vec::new();
     let mut lights = Vec::with_capacity(candidates.len());
     let full_sa: Vec<f64> = (0..map.height).map(|r| texel_solid_angle(r, map.width, map.height)).collect();
     // Texel directions from per-row (sin θ, cos θ) and per-column (cos φ, sin φ): no trigonometry per texel.
@@ -378,12 +390,12 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
             let (lc, lr) = (t.index % w, t.index / w);
             for r in lr * f..(lr + 1) * f {
                 for c in lc * f..(lc + 1) * f {
-                    let texel = &mut residual.texels[r * map.width + c];
-                    let orig = texel.map(|x| if x.is_finite() { x.max(0.0) as f64 } else { 0.0 });
-                    let kept = [0, 1, 2].map(|k| orig[k].min(fill[k]));
-                    *texel = kept.map(|x| x as f32);
+                    let index = r * map.width + c;
+                    let orig = map.texels[index].map(|x| if x.is_finite() { x.max(0.0) as f64 } else { 0.0 });
+                    let kept = [0, 1, 2].map(|k| orig[k].min(fill[k]) as f32);
+                    edits.push((index as u32, kept));
                     // The excess as stored (f32 rounding of `kept` included), so the sum is conserved.
-                    let excess = [0, 1, 2].map(|k| (orig[k] - texel[k] as f64).max(0.0));
+                    let excess = [0, 1, 2].map(|k| (orig[k] - kept[k] as f64).max(0.0));
                     let sa = full_sa[r];
                     let weight = luminance(excess) * sa;
                     let ((st, ct), (cp, sp)) = (rows[r], cols[c]);
@@ -422,7 +434,7 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
             100.0 * params.min_share
         )
     });
-    EnvDecomposition { lights, residual, qualified, regions: regions.len(), share: moved / total, note }
+    EnvDecomposition { lights, edits, qualified, regions: regions.len(), share: moved / total, note }
 }
 
 #[cfg(test)]
@@ -446,13 +458,13 @@ mod tests {
 
     fn assert_conserved(map: &LatLongMap, d: &EnvDecomposition, tol: f64) {
         let orig = map.integral();
-        let res = d.residual.integral();
+        let res = d.residual(map).integral();
         for k in 0..3 {
             let lights: f64 = d.lights.iter().map(|l| l.power()[k]).sum();
             let sum = res[k] + lights;
             assert!((sum - orig[k]).abs() <= tol * orig[k].max(1e-30), "channel {k}: {sum} vs {}", orig[k]);
         }
-        assert!(d.residual.texels.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
+        assert!(d.residual(map).texels.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
     }
 
     #[test]
@@ -475,7 +487,7 @@ mod tests {
         assert_conserved(&map, &d, 1e-6);
         // The residual is the sky where the sun was.
         let (u, v) = latlong_uv(dir);
-        let t = d.residual.texel((u * 512.0) as usize, (v * 256.0) as usize);
+        let t = d.residual(&map).texel((u * 512.0) as usize, (v * 256.0) as usize);
         assert!((t[0] - 0.2).abs() < 1e-6 && (t[2] - 0.5).abs() < 1e-6, "{t:?}");
         assert_eq!(d.note.as_deref().map(|n| n.contains("8 asked for, 1 found")), Some(true), "{:?}", d.note);
     }
@@ -484,13 +496,13 @@ mod tests {
     fn black_constant_and_k0_maps_give_no_lights() {
         let black = LatLongMap::constant(64, 32, [0.0; 3]);
         let d = decompose(&black, &EnvLightParams::default());
-        assert!(d.lights.is_empty() && d.residual == black && d.note.is_some());
+        assert!(d.lights.is_empty() && d.edits.is_empty() && d.note.is_some());
         let constant = LatLongMap::constant(64, 32, [1.0, 2.0, 3.0]);
         let d = decompose(&constant, &EnvLightParams::default());
-        assert!(d.lights.is_empty() && d.residual == constant && d.regions == 0);
+        assert!(d.lights.is_empty() && d.edits.is_empty() && d.regions == 0);
         let sun = sky_with_sun(128, 64, [0.0, 1.0, 0.0], 0.2, 100.0);
         let d = decompose(&sun, &EnvLightParams { max_lights: 0, ..Default::default() });
-        assert!(d.lights.is_empty() && d.residual == sun && d.note.is_none());
+        assert!(d.lights.is_empty() && d.edits.is_empty() && d.note.is_none());
     }
 
     #[test]
@@ -499,7 +511,7 @@ mod tests {
         map.texels[10 * 64 + 20] = [1e4, 2e4, 3e4];
         let d = decompose(&map, &EnvLightParams::default());
         assert_eq!(d.lights.len(), 1);
-        assert!(d.residual.texels.iter().all(|t| *t == [0.0; 3]));
+        assert!(d.residual(&map).texels.iter().all(|t| *t == [0.0; 3]));
         assert_conserved(&map, &d, 1e-6);
         // Its cap has the texel's solid angle (the moment of a single texel is its own extent).
         let sa = texel_solid_angle(10, 64, 32);

@@ -165,7 +165,8 @@ pub const ENV_LIGHT_DISTANCE: f32 = 256.0;
 /// [`EnvSplit::lights`] (the scene's own lights, then the environment's) as their lights. Made on first
 /// request and kept until the environment changes.
 pub struct EnvSplit {
-    /// The decomposition on the CPU (the lights as directions and cap sizes, the residual map, what was found).
+    /// The decomposition on the CPU (the lights as directions and cap sizes, the residual's texels, what was
+    /// found).
     pub decomposition: EnvDecomposition,
     /// The residual as an environment: its maps, irradiance grid and SH projections.
     pub residual: EnvironmentResources,
@@ -195,7 +196,7 @@ impl EnvSplit {
         let t1 = std::time::Instant::now();
         let lights = env_sphere_lights(&decomposition, center, radius);
         let all: Vec<SphereLight> = scene_lights.iter().copied().chain(lights).collect();
-        let residual = EnvironmentResources::new(gpu, &decomposition.residual, 1.0)?;
+        let residual = EnvironmentResources::new(gpu, &decomposition.residual(&environment.cpu), 1.0)?;
         let lights = match LightResources::new(gpu, &all) {
             Ok(l) => l,
             Err(e) => {
