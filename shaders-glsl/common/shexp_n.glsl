@@ -125,6 +125,55 @@ void shn_exp_ps_star(float f[SHN_C], int p, out float g[SHN_C]) {
     for (int i = 0; i < SHN_C; ++i) g[i] *= dc;
 }
 
+// The basis of order SHEXP_N at direction d (normalized here; a zero vector gives +z): sh_eval's
+// recurrence (sh/basis.rs `eval_basis`) in an array of SHN_C. sh_eval sizes its array for order 8 and
+// zeroes all 64 entries per call, which llvmpipe keeps in private memory; this runs once per blocker per
+// receiver, the hot path of the technique, with every bound a compile-time constant (loops unroll and the
+// recurrence's square roots fold).
+void shn_eval(vec3 d, out float y[SHN_C]) {
+    float len = length(d);
+    vec3 u = len > 0.0 ? d / len : vec3(0.0, 0.0, 1.0);
+    float qmm = 1.0 / SHN_SQRT_4PI;
+    float cm = 1.0;
+    float sm = 0.0;
+    for (int m = 0; m < SHEXP_N; ++m) {
+        if (m > 0) {
+            qmm *= sqrt(float(2 * m + 1) / float(2 * m));
+            float c = cm * u.x - sm * u.y;
+            float s = cm * u.y + sm * u.x;
+            cm = c;
+            sm = s;
+        }
+        float fm = float(m);
+        float q_lm2 = 0.0;
+        float q_lm1 = qmm;
+        for (int l = m; l < SHEXP_N; ++l) {
+            float q;
+            if (l == m) {
+                q = qmm;
+            } else if (l == m + 1) {
+                q = u.z * sqrt(2.0 * fm + 3.0) * qmm;
+            } else {
+                float fl = float(l);
+                float a = sqrt((4.0 * fl * fl - 1.0) / (fl * fl - fm * fm));
+                float b = sqrt(((fl - 1.0) * (fl - 1.0) - fm * fm) / (4.0 * (fl - 1.0) * (fl - 1.0) - 1.0));
+                q = a * (u.z * q_lm1 - b * q_lm2);
+            }
+            if (l > m) {
+                q_lm2 = q_lm1;
+                q_lm1 = q;
+            }
+            int base = l * l + l;
+            if (m == 0) {
+                y[base] = q;
+            } else {
+                y[base + m] = 1.41421356 * q * cm;
+                y[base - m] = 1.41421356 * q * sm;
+            }
+        }
+    }
+}
+
 // Scaled circle log f*_l at u = 1 − cos θ ∈ [0, 1] (sh/log.rs CircleLogTable::lookup_u): the segment
 // holding u, then u × the linear interpolation of the stored ratio f*_l/u.
 void shn_circle_fstar(float u, out float fstar[SH_MAX_ORDER]) {
@@ -150,8 +199,8 @@ void shn_circle_fstar(float u, out float fstar[SH_MAX_ORDER]) {
 void shn_add_circle_log_weighted(inout float f[SHN_C], float u, vec3 axis, float w[8]) {
     float fstar[SH_MAX_ORDER];
     shn_circle_fstar(u, fstar);
-    float y[SH_MAX_COEFFS];
-    sh_eval(axis, SHEXP_N, y);
+    float y[SHN_C];
+    shn_eval(axis, y);
     for (int l = 0; l < SHEXP_N; ++l) {
         float a = w[l] * fstar[l];
         for (int i = l * l; i < (l + 1) * (l + 1); ++i) f[i] += a * y[i];

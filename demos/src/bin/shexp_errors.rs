@@ -13,6 +13,13 @@
 //! - **exp method**: exact exp* replaced by HYB, OL or PS*-2 — the twin's whole per-receiver pipeline
 //!   (leaves only: no cut, no clusters).
 //!
+//! **Spherical lights** (the scene's, and with `--env-lights` the environment's bright regions taken out as
+//! lights with the residual as the environment, as `shexp:env_lights=on` shades): each light's true term is
+//! 1/π ∫_cap L max(0, n·ω) V(ω) dω by `--light-samples` stratified directions over its cap; the technique
+//! takes the exact unshadowed term times the SH visibility ratio (C·(H * g))/(C·H), C the light cap's windowed
+//! projection, so a light has no representation error of its own: from the second stage on its term carries
+//! the stage's visibility g. The table splits the error into the environment's part and each light's.
+//!
 //! Every integral is a sum over the texel centres of the environment box-filtered down to about 256 columns
 //! (solid-angle weights). Output: a table (relative RMSE % against E_true, and against E_L: the visibility
 //! error alone under the same order-n lighting), `errors.csv` and `errors.svg` in `--out`.
@@ -25,7 +32,7 @@ use engine::blockers::geom::blocker_for_receiver;
 use engine::blockers::{BlockerPlane, Sphere};
 use engine::gpu::{Gpu, GpuDesc};
 use engine::math::envmap::{texel_solid_angle, LatLongMap};
-use engine::math::sh::{dot, eval_basis, irradiance_weighting, project_latlong};
+use engine::math::sh::{circle_visibility_zonal, dot, eval_basis, irradiance_weighting, project_latlong, zh_rotate};
 use engine::math::shading::shading_normals;
 use engine::math::shexp::exp_exact;
 use engine::metrics::sqrt_ratio;
@@ -63,6 +70,44 @@ struct Args {
     per_vertex: bool,
     #[arg(long, default_value = "out/shexp_errors")]
     out: PathBuf,
+    /// Split the environment into lights and a residual (the scene's environment-lights settings), as
+    /// `shexp:env_lights=on` shades it.
+    #[arg(long)]
+    env_lights: bool,
+    /// Directions per light cap for the lights' true terms.
+    #[arg(long, default_value_t = 256)]
+    light_samples: usize,
+}
+
+/// A light as the stages see it: world centre, radius and radiance.
+struct Light {
+    center: DVec3,
+    radius: f64,
+    radiance: [f64; 3],
+}
+
+/// `count` directions spread evenly over the cap about `axis` of half-angle with cosine `cos_alpha` (a spiral
+/// uniform in solid angle), and the solid angle each stands for.
+fn cap_directions(axis: DVec3, cos_alpha: f64, count: usize) -> (Vec<DVec3>, f64) {
+    let e1 = axis.any_orthonormal_vector();
+    let e2 = axis.cross(e1);
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let dirs = (0..count)
+        .map(|k| {
+            let z = 1.0 - (1.0 - cos_alpha) * (k as f64 + 0.5) / count as f64;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = golden * k as f64;
+            z * axis + r * (phi.cos() * e1 + phi.sin() * e2)
+        })
+        .collect();
+    (dirs, 2.0 * std::f64::consts::PI * (1.0 - cos_alpha) / count as f64)
+}
+
+/// The light's cap seen from p: (axis, cos α), `None` when p is inside it.
+fn light_cap(p: DVec3, l: &Light) -> Option<(DVec3, f64)> {
+    let d = l.center - p;
+    let dist = d.length();
+    (dist > l.radius).then(|| (d / dist, ((dist - l.radius) * (dist + l.radius)).sqrt() / dist))
 }
 
 /// The integration grid: texel-centre directions and solid angles of the environment averaged down.
@@ -228,18 +273,50 @@ fn run() -> Result<()> {
     if receivers.is_empty() {
         bail!("no covered pixel in the frame");
     }
-    let env = &scene.environment;
-    if env.width == 0 || env.height == 0 {
+    if scene.environment.width == 0 || scene.environment.height == 0 {
         bail!("the environment map is empty");
     }
+    // The environment the technique shades (scaled by the scene's intensity), and its lights.
+    let scaled = LatLongMap {
+        width: scene.environment.width,
+        height: scene.environment.height,
+        texels: scene.environment.texels.iter().map(|t| t.map(|c| c * scene.environment_intensity)).collect(),
+    };
+    let mut lights: Vec<Light> = scene
+        .lights
+        .iter()
+        .map(|l| Light {
+            center: l.center.as_dvec3(),
+            radius: l.radius as f64,
+            radiance: l.radiance.as_dvec3().to_array(),
+        })
+        .collect();
+    let env = if args.env_lights {
+        let d = engine::math::env_lights::decompose(&scaled, &scene.env_lights);
+        let (lo, hi) = scene.bounds();
+        let (center, radius) = (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3));
+        for l in engine::resources::environment::env_sphere_lights(&d, center, radius) {
+            lights.push(Light {
+                center: l.center.as_dvec3(),
+                radius: l.radius as f64,
+                radiance: l.radiance.as_dvec3().to_array(),
+            });
+        }
+        eprintln!("environment lights: {} light(s), {:.1} % of the power", d.lights.len(), 100.0 * d.share);
+        d.residual(&scaled)
+    } else {
+        scaled
+    };
+    let env = &env;
     let grid = grid_of(env);
     eprintln!(
-        "{}: {} receivers, {} spheres, {} planes, {} directions; true visibility...",
+        "{}: {} receivers, {} spheres, {} planes, {} directions, {} lights; true visibility...",
         args.scene,
         receivers.len(),
         spheres.len(),
         planes.len(),
-        grid.dirs.len()
+        grid.dirs.len(),
+        lights.len()
     );
     let vis: Vec<Vec<bool>> = receivers.iter().map(|(p, n)| visibility(&grid, *p, *n, &spheres, &planes)).collect();
     let truth: Vec<[f64; 3]> = receivers
@@ -257,9 +334,45 @@ fn run() -> Result<()> {
         })
         .collect();
 
+    // Each light's true term and its exact unshadowed term, per receiver (1/π folded in: ρ = 1).
+    let light_truth: Vec<Vec<([f64; 3], [f64; 3])>> = receivers
+        .iter()
+        .map(|(p, n)| {
+            let blockers: Vec<Sphere> = spheres.iter().filter_map(|s| blocker_for_receiver(*p, *n, s)).collect();
+            lights
+                .iter()
+                .map(|l| {
+                    let Some((axis, cos_alpha)) = light_cap(*p, l) else { return ([0.0; 3], [0.0; 3]) };
+                    let (dirs, w) = cap_directions(axis, cos_alpha, args.light_samples.max(1));
+                    let mut e = 0.0;
+                    for d in dirs {
+                        let c = d.dot(*n);
+                        if c > 0.0
+                            && !blockers.iter().any(|s| s.ray_hits(*p, d))
+                            && !planes.iter().any(|pl| pl.blocks_direction(*p, d))
+                        {
+                            e += w * c / std::f64::consts::PI;
+                        }
+                    }
+                    let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+                    let free = engine::math::sphere_light::cap_clamped_cosine(axis.dot(*n), sin_alpha, cos_alpha)
+                        / std::f64::consts::PI;
+                    (l.radiance.map(|x| x * e), l.radiance.map(|x| x * free))
+                })
+                .collect()
+        })
+        .collect();
+    let truth_env = truth.clone();
+    let truth: Vec<[f64; 3]> = truth
+        .iter()
+        .zip(&light_truth)
+        .map(|(e, ls)| [0, 1, 2].map(|c| e[c] + ls.iter().map(|l| l.0[c]).sum::<f64>()))
+        .collect();
+
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let mut csv = String::from("order,stage,rel_rmse_vs_true,rel_rmse_vs_lighting_n\n");
     let mut table = vec![];
+    let mut parts: Vec<(usize, Vec<f64>, Vec<Vec<f64>>)> = vec![];
     for &order in &args.orders {
         eprintln!("order {order}...");
         // The §6.2 rule without the α scale: the one the true visibility's rays apply (as the reference's).
@@ -273,10 +386,13 @@ fn run() -> Result<()> {
         // invert (engine::math::shexp::exp_exact, by eigen decomposition in f64).
         let exact_exp = |f: &[f64]| exp_exact(&twins[0].tensor, f);
         let mut stages: Vec<Vec<[f64; 3]>> = vec![Vec::new(); STAGES.len()];
+        // The environment's part alone and each light's term alone, per stage.
+        let mut env_stages: Vec<Vec<[f64; 3]>> = vec![Vec::new(); STAGES.len()];
+        let mut light_stages: Vec<Vec<Vec<[f64; 3]>>> = vec![vec![Vec::new(); lights.len()]; STAGES.len()];
         // How far past OL's fitted range the logs go (OL clamps its (a, b) at the table's end).
         let (mut beyond, mut largest) = (0usize, 0.0f64);
         let ol_end = twins[1].ol.norms.last().copied().unwrap_or(0.0);
-        for ((p, n), v) in receivers.iter().zip(&vis) {
+        for (receiver, ((p, n), v)) in receivers.iter().zip(&vis).enumerate() {
             let (f, _) = twins[0].log_visibility(*p, *n, &spheres);
             let norm = f[1..].iter().map(|x| x * x).sum::<f64>().sqrt();
             largest = largest.max(norm);
@@ -292,17 +408,49 @@ fn run() -> Result<()> {
                 }
             }
             let h = irradiance_weighting(og.n, n.to_array());
+            let window = base.window();
+            // The lights under visibility g: each its exact unshadowed term times (C·(H * g))/(C·H).
+            let light_terms = |g: Option<&[f64]>| -> Vec<[f64; 3]> {
+                let pv = g.map(|g| twins[0].tensor.product(&h, g));
+                lights
+                    .iter()
+                    .enumerate()
+                    .map(|(j, l)| {
+                        let (exact, free) = light_truth[receiver][j];
+                        let Some(g_pv) = &pv else { return exact };
+                        let Some((axis, cos_alpha)) = light_cap(*p, l) else { return free };
+                        // The cap's zonal projection: the whole sphere's minus the circle's visibility, windowed.
+                        let mut zonal = circle_visibility_zonal(og.n, cos_alpha.clamp(-1.0, 1.0).acos());
+                        let factors = window.band_factors(og.n);
+                        zonal.iter_mut().enumerate().for_each(|(k, z)| {
+                            *z = (if k == 0 { (4.0 * std::f64::consts::PI).sqrt() } else { 0.0 }) - *z;
+                            *z *= factors[k];
+                        });
+                        let cap = zh_rotate(&zonal, axis.to_array());
+                        let (num, den) = (dot(&cap, g_pv), dot(&cap, &h));
+                        let v = if den > 1e-12 { (num / den).clamp(0.0, 1.0) } else { 1.0 };
+                        free.map(|x| x * v)
+                    })
+                    .collect()
+            };
             let shade = |g: &[f64]| -> [f64; 3] {
                 let pv = twins[0].tensor.product(&h, g);
                 [0, 1, 2].map(|c| dot(&og.lighting[c], &pv))
             };
-            stages[0].push(e_l);
-            stages[1].push(shade(&v_n));
+            let mut push = |s: usize, e: [f64; 3], ls: Vec<[f64; 3]>| {
+                stages[s].push([0, 1, 2].map(|c| e[c] + ls.iter().map(|l| l[c]).sum::<f64>()));
+                env_stages[s].push(e);
+                for (j, l) in ls.into_iter().enumerate() {
+                    light_stages[s][j].push(l);
+                }
+            };
+            push(0, e_l, light_terms(None));
+            push(1, shade(&v_n), light_terms(Some(&v_n)));
             let (g, _) = twins[0].visibility_with_exp(*p, *n, &spheres, &planes, &exact_exp);
-            stages[2].push(shade(&g));
+            push(2, shade(&g), light_terms(Some(&g)));
             for (t, twin) in twins.iter().enumerate() {
                 let (g, _) = twin.visibility(*p, *n, &spheres, &planes);
-                stages[3 + t].push(shade(&g));
+                push(3 + t, shade(&g), light_terms(Some(&g)));
             }
         }
         let mut row = vec![];
@@ -313,6 +461,15 @@ fn run() -> Result<()> {
             row.push((vs_true, vs_l));
         }
         let exp_vs_exact: Vec<f64> = (3..6).map(|s| rel_rmse(&stages[s], &stages[2])).collect();
+        // The parts at each stage: the environment's against its own truth, each light's against its own.
+        let env_part: Vec<f64> = (0..STAGES.len()).map(|s| rel_rmse(&env_stages[s], &truth_env)).collect();
+        let light_parts: Vec<Vec<f64>> = (0..lights.len())
+            .map(|j| {
+                let t: Vec<[f64; 3]> = light_truth.iter().map(|l| l[j].0).collect();
+                (0..STAGES.len()).map(|s| rel_rmse(&light_stages[s][j], &t)).collect()
+            })
+            .collect();
+        parts.push((order, env_part, light_parts));
         eprintln!(
             "order {order}: largest ‖f̂‖ {largest:.1}; {beyond} of {} receivers past OL's table end ({ol_end:.2})",
             receivers.len()
@@ -347,6 +504,27 @@ fn run() -> Result<()> {
             )
             .collect();
         println!("| {order} | {} |", cells.join(" | "));
+    }
+    if !lights.is_empty() {
+        println!();
+        println!(
+            "The parts: the environment's term against its own truth, then each light's (relative RMSE %; the \
+             light's power share of the truth in parentheses):"
+        );
+        println!();
+        let total: f64 = truth.iter().map(|t| t[0] + t[1] + t[2]).sum();
+        let share =
+            |j: usize| 100.0 * light_truth.iter().map(|l| l[j].0.iter().sum::<f64>()).sum::<f64>() / total.max(1e-300);
+        println!("| n | part | {} |", STAGES.join(" | "));
+        println!("|---|---|{}", "---|".repeat(STAGES.len()));
+        for (order, env_part, light_parts) in &parts {
+            let cells = |v: &[f64]| v.iter().map(|x| format!("{:.2}", 100.0 * x)).collect::<Vec<_>>().join(" | ");
+            let env_share = 100.0 * truth_env.iter().map(|t| t.iter().sum::<f64>()).sum::<f64>() / total.max(1e-300);
+            println!("| {order} | environment ({env_share:.0} %) | {} |", cells(env_part));
+            for (j, lp) in light_parts.iter().enumerate() {
+                println!("| {order} | light {j} ({:.0} %) | {} |", share(j), cells(lp));
+            }
+        }
     }
     println!();
     println!("Exp method against the exact exp* of the same log vector (relative RMSE %):");

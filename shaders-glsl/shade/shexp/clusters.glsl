@@ -88,8 +88,8 @@ void ratio_vector(uint v, vec3 ps, out float w[8]) {
     if (!(ub > 0.0 && ub < 1.0)) return;
     float fb[SH_MAX_ORDER];
     shn_circle_fstar(ub, fb);
-    float yb[SH_MAX_COEFFS];
-    sh_eval(s.xyz - ps, SHEXP_N, yb);
+    float yb[SHN_C];
+    shn_eval(s.xyz - ps, yb);
     float fd[SHN_C];
     for (int i = 0; i < SHN_C; ++i) fd[i] = 0.0;
     BvhCursor cur;

@@ -151,8 +151,18 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("tiles"),
         help: "per-pixel receiver clusters (cluster > 0): tiles (T×T screen tiles) or world (the per-vertex clusters: a pixel joins its triangle's first vertex's cluster, whose bounding sphere grows to hold the cluster's triangles)",
     },
+    OptionSpec {
+        key: "phase",
+        aliases: &[],
+        kind: Kind::Choice(&PHASES),
+        default: Some("all"),
+        help: "cost split (a timing variant, its image is not the technique's): every receiver stops after visit (the cut list walked, the §6.2 rules and each blocker's angle), logs (+ the circle logs summed), exp (+ the exponential and the planes) or all (+ the shading and the lights)",
+    },
     super::env_lights_option("on"),
 ];
+
+/// The values of option `phase`, in order: phase k (1-based) is `SHEXP_PHASE` k in shade.glsl.
+pub const PHASES: [&str; 4] = ["visit", "logs", "exp", "all"];
 
 pub const ENTRY: TechniqueEntry = TechniqueEntry {
     name: "shexp",
@@ -214,6 +224,9 @@ pub struct ShexpOptions {
     /// `pixel_clusters=world`: per pixel, the clusters are the per-vertex ones (by each triangle's first
     /// vertex) instead of screen tiles.
     pub world_pixel_clusters: bool,
+    /// The cost split (option `phase`, a timing variant): 1 visit the blockers, 2 + their logs, 3 + the
+    /// exponential, 4 everything (`SHEXP_PHASE` in shade.glsl).
+    pub phase: u32,
 }
 
 impl Default for ShexpOptions {
@@ -235,6 +248,7 @@ impl Default for ShexpOptions {
             lloyd: false,
             bake: false,
             world_pixel_clusters: false,
+            phase: 4,
         }
     }
 }
@@ -262,6 +276,7 @@ impl ShexpOptions {
             lloyd: o.choice("vertex_clusters") == "lloyd",
             bake: o.choice("bake") == "on",
             world_pixel_clusters: o.choice("pixel_clusters") == "world",
+            phase: PHASES.iter().position(|p| *p == o.choice("phase")).map_or(4, |k| k as u32 + 1),
         }
     }
 
@@ -551,8 +566,8 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
 
 impl Shexp {
     pub fn new(gpu: &Gpu, options: ShexpOptions) -> Result<Self> {
-        let n = options.order.to_string();
-        let defines = [("SHEXP_N", n.as_str())];
+        let (n, phase) = (options.order.to_string(), options.phase.to_string());
+        let defines = [("SHEXP_N", n.as_str()), ("SHEXP_PHASE", phase.as_str())];
         let pipelines = TargetPipelines::with_defines(gpu, "shexp", &defines)?;
         if options.cluster_side() > 0 {
             for target in ["pixel", "vertex"] {
