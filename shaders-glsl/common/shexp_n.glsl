@@ -19,7 +19,11 @@
 
 const float SHN_SQRT_4PI = 3.5449077018;
 
-// (a * b)_i = Σ Γ_ijk a_j b_k (SHEXP Eq. 3); sh/tensor.rs `ShTensor::product_into`.
+// (a * b)_i = Σ Γ_ijk a_j b_k (SHEXP Eq. 3); sh/tensor.rs `ShTensor::product_into`. Orders 3..6 use the
+// generated straight-line code (sh_product_gen.glsl, engine_math::sh::glsl_products); the others this
+// loop over the tensor's table.
+#include "sh_product_gen.glsl"
+#ifndef SHN_PRODUCT_GENERATED
 void shn_product(float a[SHN_C], float b[SHN_C], out float c[SHN_C]) {
     for (int i = 0; i < SHN_C; ++i) c[i] = 0.0;
     for (uint e = 0u; e < uint(SHN_GAMMA_COUNT); ++e) {
@@ -30,6 +34,7 @@ void shn_product(float a[SHN_C], float b[SHN_C], out float c[SHN_C]) {
         c[i] += uintBitsToFloat(w.y) * (a[j] * b[k] + a[k] * b[j]);
     }
 }
+#endif
 
 float shn_norm_hat(float f[SHN_C]) {
     float s = 0.0;

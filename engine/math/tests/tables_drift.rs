@@ -59,3 +59,15 @@ fn no_stray_table_files() {
         assert!(!f.ends_with(".bin") || known.contains(&f), "{f} is in assets/tables but no generator makes it");
     }
 }
+
+/// The generated GLSL of the SH products is the generator's (`cargo xtask tables` rewrites it).
+#[test]
+fn generated_glsl_products_match_the_tensor() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shaders-glsl/common/sh_product_gen.glsl");
+    let stored = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        stored == engine_math::sh::glsl_products(),
+        "{} differs from engine_math::sh::glsl_products(): run `cargo xtask tables` and commit it",
+        path.display()
+    );
+}

@@ -5,6 +5,9 @@
 //! and size of each, and fails if all of them together exceed the device-memory budget. `--check` reads the files
 //! instead and regenerates a seeded random sample of entries of each (`--samples`, default 2000), comparing them
 //! within the drift tolerance.
+//!
+//! It also writes (or with `--check` compares) the generated GLSL of the SH products,
+//! `shaders-glsl/common/sh_product_gen.glsl` (`--glsl PATH`; engine_math::sh::glsl_products).
 
 use engine_math::table_gen::{all_tables, sample_indices, MathTable, Regenerator, DRIFT_ABS, DRIFT_REL};
 use engine_math::tables::Table;
@@ -16,6 +19,7 @@ const BUDGET_BYTES: u64 = 16 << 20;
 
 struct Args {
     out: PathBuf,
+    glsl: PathBuf,
     check: bool,
     only: Option<Vec<String>>,
     samples: usize,
@@ -25,6 +29,7 @@ struct Args {
 fn parse() -> Result<Args, String> {
     let mut a = Args {
         out: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../assets/tables"),
+        glsl: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shaders-glsl/common/sh_product_gen.glsl"),
         check: false,
         only: None,
         samples: 2000,
@@ -35,14 +40,16 @@ fn parse() -> Result<Args, String> {
         let mut value = |name: &str| it.next().ok_or(format!("{name} needs a value"));
         match arg.as_str() {
             "--out" => a.out = PathBuf::from(value("--out")?),
+            "--glsl" => a.glsl = PathBuf::from(value("--glsl")?),
             "--check" => a.check = true,
             "--only" => a.only = Some(value("--only")?.split(',').map(str::to_string).collect()),
             "--samples" => a.samples = value("--samples")?.parse().map_err(|e| format!("--samples: {e}"))?,
             "--seed" => a.seed = value("--seed")?.parse().map_err(|e| format!("--seed: {e}"))?,
             "-h" | "--help" => {
                 println!(
-                    "tables [--out DIR] [--check] [--only NAME,...] [--samples N] [--seed S]\n  \
-                     default DIR: assets/tables of the project\n  tables: {}",
+                    "tables [--out DIR] [--glsl PATH] [--check] [--only NAME,...] [--samples N] [--seed S]\n  \
+                     default DIR: assets/tables of the project; default PATH: its \
+                     shaders-glsl/common/sh_product_gen.glsl\n  tables: {}",
                     all_tables().iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
                 );
                 std::process::exit(0)
@@ -99,6 +106,8 @@ fn generate(a: &Args, tables: &[MathTable]) -> Result<(), String> {
         t_all.elapsed().as_secs_f64()
     );
     if a.only.is_none() {
+        std::fs::write(&a.glsl, engine_math::sh::glsl_products()).map_err(|e| format!("{}: {e}", a.glsl.display()))?;
+        println!("tables: wrote {}", a.glsl.display());
         if total > BUDGET_BYTES {
             return Err(format!("the tables take {total} bytes, over the budget of {BUDGET_BYTES}"));
         }
@@ -147,6 +156,15 @@ fn check(a: &Args, tables: &[MathTable]) -> Result<(), String> {
                 println!("  [{:>2}/{}] {:<20} FAILED: {e}", k + 1, tables.len(), table.name());
                 failures.push(table.name());
             }
+        }
+    }
+    if a.only.is_none() {
+        let stored = std::fs::read_to_string(&a.glsl).unwrap_or_default();
+        if stored == engine_math::sh::glsl_products() {
+            println!("  {} ok", a.glsl.display());
+        } else {
+            println!("  {} FAILED: differs from the generator's", a.glsl.display());
+            failures.push("sh_product_gen.glsl".to_string());
         }
     }
     println!("tables: checked in {:.1} s", t_all.elapsed().as_secs_f64());
