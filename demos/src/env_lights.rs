@@ -71,6 +71,43 @@ impl EnvLightArgs {
     }
 }
 
+/// Which part of a split environment a measurement keeps (`compare --env-part`): the scene as it is, its
+/// residual alone (the environment replaced by the residual, no environment lights), or its lights alone (a
+/// black environment, the environment's lights added to the scene's as spheres). Each part is then measured
+/// against a reference of the same part, so the error of the lights and of the residual can be told apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum EnvPart {
+    Whole,
+    Residual,
+    Lights,
+}
+
+/// `scene` reduced to `part` of its environment split by its own settings (`Whole`: unchanged).
+pub fn keep_part(scene: &mut Scene, part: EnvPart) {
+    if part == EnvPart::Whole {
+        return;
+    }
+    let env = &scene.environment;
+    let scaled = LatLongMap {
+        width: env.width,
+        height: env.height,
+        texels: env.texels.iter().map(|t| t.map(|c| c * scene.environment_intensity)).collect(),
+    };
+    let d = engine::math::env_lights::decompose(&scaled, &scene.env_lights);
+    match part {
+        EnvPart::Residual => scene.environment = d.residual(&scaled),
+        _ => {
+            let (lo, hi) = scene.bounds();
+            let (center, radius) = (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3));
+            scene.lights.extend(engine::resources::environment::env_sphere_lights(&d, center, radius));
+            scene.environment = LatLongMap::constant(scaled.width, scaled.height, [0.0; 3]);
+        }
+    }
+    scene.environment_intensity = 1.0;
+    // The part is what there is now: nothing more to split.
+    scene.env_lights.max_lights = 0;
+}
+
 /// The lights of a decomposition as lines for the user: direction (azimuth about +y from +x, elevation),
 /// half-angle, radiance and share of the power.
 pub fn describe(d: &EnvDecomposition) -> Vec<String> {

@@ -79,6 +79,11 @@ struct Args {
     time: Option<f32>,
     #[command(flatten)]
     env_lights: demos::env_lights::EnvLightArgs,
+    /// Measure one part of the environment split by the scene's settings (and the --env-lights* options), against a
+    /// reference of that part alone: `residual` (the environment replaced by its residual, no environment lights)
+    /// or `lights` (a black environment, the environment's bright regions as spherical lights beside the scene's).
+    #[arg(long, value_enum, default_value = "whole")]
+    env_part: demos::env_lights::EnvPart,
 }
 
 fn main() {
@@ -100,6 +105,7 @@ fn run() -> Result<()> {
         demos::apply_brdf(&mut scene, spec)?;
     }
     args.env_lights.apply(&mut scene);
+    demos::env_lights::keep_part(&mut scene, args.env_part);
     if args.no_plane_blockers {
         scene.blockers.planes.clear();
         scene.blockers.plane_meshes.clear();
