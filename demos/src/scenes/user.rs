@@ -365,17 +365,28 @@ fn spheres_of(
             let dir = opts.cache.clone().unwrap_or_else(cache_dir);
             let name = mesh.name.clone();
             let mut announced = false;
-            let (spheres, cache, fitted) = engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
+            let cached = engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
                 if !announced {
-                    eprintln!("fitting {n} blocker spheres to '{name}' of {} (cached after)...", file.display());
+                    eprintln!("fitting blocker spheres to '{name}' of {} (cached after)...", file.display());
                     announced = true;
                 }
                 eprintln!("  iteration {:>3}: outside volume {:.4e} {}", p.iteration, p.outside_sum, p.message);
-            })?;
-            if fitted {
-                eprintln!("fitted {} spheres to '{name}', cached in {}", spheres.len(), cache.display());
+            })
+            .with_context(|| format!("{}: fitting {n} blocker spheres to mesh '{name}' (--spheres)", file.display()))?;
+            if let Some((asked, (surface, interior))) = cached.capped {
+                eprintln!(
+                    "warning: {}: mesh '{name}' supports at most {} blocker spheres (its {surface} surface and \
+                     {interior} interior sample points): using {}, not the {asked} asked (--spheres, or a scene \
+                     file's `spheres`)",
+                    file.display(),
+                    surface + interior,
+                    cached.spheres.len()
+                );
             }
-            Ok(Some(spheres))
+            if cached.fitted {
+                eprintln!("fitted {} spheres to '{name}', cached in {}", cached.spheres.len(), cached.file.display());
+            }
+            Ok(Some(cached.spheres))
         }
         Blockers::Files(files) => {
             let f = files.get(k).ok_or_else(|| {

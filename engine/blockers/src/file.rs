@@ -175,6 +175,8 @@ pub fn load_or_fit(
     let reason = match SphereSetFile::load(cache) {
         Ok(file) if file.mesh_hash != mesh.content_hash() => "mesh changed".to_string(),
         Ok(file) if file.settings != *settings => "settings changed".to_string(),
+        // Written before a sheet's spheres had a floor radius (fit.rs, sheet_radius): they block nothing.
+        Ok(file) if file.spheres.iter().all(|s| s[3] == 0.0) => "every sphere has radius 0".to_string(),
         Ok(file) => return Ok(CacheOutcome::Hit(file.spheres()?)),
         Err(e) => format!("no usable cache ({e})"),
     };
