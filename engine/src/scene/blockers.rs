@@ -170,10 +170,13 @@ pub fn cached_spheres(
 /// Load a sphere file for `mesh`, refusing one fitted to another mesh (its recorded content hash differs).
 pub fn spheres_for_mesh(mesh: &Mesh, file: &Path) -> Result<Vec<Sphere>, super::SceneError> {
     let err = |m: String| super::SceneError::invalid(file, m);
-    if !file.exists() {
-        return Err(super::SceneError::NotFound { path: file.to_path_buf() });
-    }
-    let set = engine_blockers::file::SphereSetFile::load(file).map_err(|e| err(e.to_string()))?;
+    let text = engine_io::read_to_string(file, engine_io::Limit::SPHERES)?;
+    let set =
+        engine_blockers::file::SphereSetFile::from_json(&text, &file.display().to_string()).map_err(|e| match e {
+            // The format error names the file itself: keep its message only.
+            engine_blockers::BlockerError::Format { message, .. } => err(format!("not a valid sphere file: {message}")),
+            other => err(other.to_string()),
+        })?;
     let positions = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     let triangles = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
     let bmesh = engine_blockers::mesh::Mesh::new(positions, triangles).map_err(|e| err(e.to_string()))?;

@@ -470,6 +470,15 @@ fn read_buffers(
                 let full = if file.is_absolute() { file } else { dir.unwrap_or(Path::new(".")).join(file) };
                 let mut bytes =
                     engine_io::read(&full, engine_io::Limit::MESH).map_err(|e| format!("buffer {}: {e}", b.index()))?;
+                if bytes.len() < b.length() {
+                    return Err(format!(
+                        "buffer {}: {}: has {} bytes; its byteLength is {}",
+                        b.index(),
+                        full.display(),
+                        bytes.len(),
+                        b.length()
+                    ));
+                }
                 bytes.resize(bytes.len().next_multiple_of(4), 0);
                 Some(gltf::buffer::Data(bytes))
             }
