@@ -181,7 +181,7 @@ fn special_files_are_refused_everywhere_within_time_and_memory() {
                 Some("did not finish (a blocked or endless read)")
             } else if code.is_none() {
                 Some("ended by a signal (an abort: memory exhausted?)")
-            } else if stderr.contains("panicked") {
+            } else if stderr.contains("panicked at") {
                 Some("printed panic text")
             } else if code != Some(1) {
                 Some("exit status is not 1")

@@ -21,7 +21,7 @@ mod quiet;
 mod text;
 
 pub use quiet::{catch_quiet, contained_panics};
-pub use text::{excerpt, shorten, MAX_EXCERPT_CHARS, MAX_LINE_CHARS};
+pub use text::{excerpt, shorten, MAX_EXCERPT_CHARS, MAX_LINE_CHARS, MAX_WORD_CHARS};
 
 /// The largest file of one kind that is read, and what the kind is called in messages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
