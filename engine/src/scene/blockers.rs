@@ -156,7 +156,7 @@ pub fn cached_spheres(
     let (surface, interior) = engine_blockers::fit::sample_points(&bmesh, settings);
     let supported = surface + interior;
     let mut settings = settings.clone();
-    let capped = (settings.count > supported).then(|| (settings.count, (surface, interior)));
+    let capped = (settings.count > supported).then_some((settings.count, (surface, interior)));
     settings.count = settings.count.min(supported);
     let hash = bmesh.content_hash();
     let short: String = hash.rsplit(':').next().unwrap_or("").chars().filter(|c| c.is_ascii_hexdigit()).collect();

@@ -87,7 +87,10 @@ pub fn technique_entry(name: &str) -> Result<&'static TechniqueEntry> {
 
 /// Checks that tie several keys of one technique together (each key alone is checked by its schema), by technique
 /// name: a table beside the registry, so that no entry has to change for a technique to have none.
-const OPTION_CHECKS: &[(&str, fn(&Options) -> std::result::Result<(), String>)] = &[("shexp", shexp::check_options)];
+const OPTION_CHECKS: &[(&str, OptionCheck)] = &[("shexp", shexp::check_options)];
+
+/// A check of several keys of one technique's parsed options: `Err` says what contradicts what.
+type OptionCheck = fn(&Options) -> std::result::Result<(), String>;
 
 /// Parse a technique spec `name[:key=value,...]` against the registry (no GPU needed): unknown names,
 /// unknown keys, out-of-range values and contradictory keys are errors naming them.
