@@ -232,3 +232,24 @@ fn errors_quote_huge_input_as_short_excerpts() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_model_with_fewer_sample_points_than_spheres_is_fitted_and_named() {
+    // Khronos' SimpleSkin has 18 sample points; the default 32 spheres failed with
+    // `…/cache/…-n32.spheres.json: cannot fit 32 spheres to 18 sample points`.
+    let dir = temp("count");
+    let path = dir.join("SimpleSkin.gltf");
+    let (b, doc) = demos::gltf_writer::simple_skin();
+    b.write(doc, &path, demos::gltf_writer::Container::Embedded).expect("writing the strip");
+    let (code, stderr) = demo_scene(&path);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked at") && !stderr.contains("cannot fit"), "{stderr}");
+    for needle in
+        ["warning: ", "SimpleSkin.gltf", "supports at most 18 blocker spheres", "not the 32 asked", "--spheres"]
+    {
+        assert!(stderr.contains(needle), "the warning lacks '{needle}':\n{stderr}");
+    }
+    // It loaded: only the absent Vulkan driver stopped the run.
+    assert!(stderr.contains("no usable Vulkan device") || stderr.contains("vkCreateInstance"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
