@@ -110,6 +110,13 @@ fn a_malformed_mtl_line_names_the_mtl_and_its_line() {
     assert_error(&obj_with_mtl(&dir, "two", "newmtl a\nKd 0.5 0.5\n"), &["two.mtl: line 2", "it has 2"]);
     assert_error(&obj_with_mtl(&dir, "ns", "newmtl a\nNs\n"), &["ns.mtl: line 2", "`Ns` needs one number"]);
     assert_error(&obj_with_mtl(&dir, "word", "newmtl a\nKd red 0 0\n"), &["word.mtl: line 2", "'red' is not a number"]);
+    // Valid forms load: one number (the spec's r r r), three, and more than three (the first three, as tobj reads).
+    for (i, kd) in ["Kd 0.5", "Kd 0.5 0.4 0.3", "Kd 0.5 0.4 0.3 1"].iter().enumerate() {
+        let obj = obj_with_mtl(&dir, &format!("ok{i}"), &format!("newmtl a\n{kd}\nNs 10 # shiny\nillum 2\n"));
+        let (code, stderr) = demo_scene(&obj);
+        assert_eq!(code, Some(1), "{kd}: {stderr}");
+        assert!(stderr.contains("no usable Vulkan device") || stderr.contains("vkCreateInstance"), "{kd}: {stderr}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

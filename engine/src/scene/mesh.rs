@@ -166,7 +166,8 @@ fn check_mtl(text: &str) -> std::result::Result<String, (usize, String)> {
                     out.push_str(&format!("{keyword} {r} {r} {r}\n"));
                     continue;
                 }
-                (_, 3) => {}
+                // More than three: tobj reads the first three (as before).
+                (_, k) if k >= 3 => {}
                 (_, k) => return Err(err(format!("`{keyword}` needs three numbers (r g b) or one; it has {k}"))),
             }
         } else if MTL_SCALARS.contains(&keyword) {

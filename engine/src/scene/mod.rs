@@ -171,7 +171,12 @@ impl Material {
         let (kind, pairs) = crate::options::split_spec(spec).map_err(|e| format!("--brdf {e}"))?;
         let Some((_, _, schema)) = BRDF_MODELS.iter().find(|(name, _, _)| *name == kind) else {
             let names: Vec<&str> = BRDF_MODELS.iter().map(|(n, _, _)| *n).collect();
-            return Err(format!("--brdf '{spec}': unknown model '{kind}' ({})", names.join(", ")));
+            return Err(format!(
+                "--brdf '{}': unknown model '{}' ({})",
+                engine_io::excerpt(spec),
+                engine_io::excerpt(kind),
+                names.join(", ")
+            ));
         };
         let o = crate::options::parse(&format!("--brdf '{kind}'"), schema, &pairs).map_err(|e| e.0)?;
         let mut m = *self;

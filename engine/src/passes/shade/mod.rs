@@ -81,7 +81,7 @@ impl TechniqueEntry {
 pub fn technique_entry(name: &str) -> Result<&'static TechniqueEntry> {
     TECHNIQUES.iter().find(|t| t.name == name).ok_or_else(|| {
         let names: Vec<&str> = TECHNIQUES.iter().map(|t| t.name).collect();
-        GpuError::Other(format!("unknown technique '{name}' (available: {})", names.join(", ")))
+        GpuError::Other(format!("unknown technique '{}' (available: {})", engine_io::excerpt(name), names.join(", ")))
     })
 }
 
