@@ -252,6 +252,61 @@ pub fn two_bone_arm(rings: u32, segments: u32) -> (GltfBuilder, Value) {
     (b, doc)
 }
 
+/// A skinned strip shaped as Khronos' SimpleSkin sample: 1 wide (x) and 2 tall (y) in the plane z = 0, five rows
+/// of two vertices (10 vertices, 8 triangles: the fit's 18 sample points, no interior), two joints (`root` at the
+/// origin, `top` at y = 1; inverse bind matrices identity and translate(0, −1, 0)), the rows at y ≤ 0.5 bound to
+/// `root`, y = 1 half to each, y ≥ 1.5 to `top`; one clip `bend` turning `top` about +z by 0°, 30°, 0° at t = 0, 1,
+/// 2. No material (the importer's default grey). A flat, small, skinned blocker without volume.
+pub fn simple_skin() -> (GltfBuilder, Value) {
+    let mut b = GltfBuilder::default();
+    let (mut pos, mut joints, mut weights, mut idx) = (vec![], vec![], vec![], vec![]);
+    for row in 0..5u32 {
+        let y = 0.5 * row as f32;
+        let w_top = [0.0, 0.0, 0.5, 1.0, 1.0][row as usize];
+        for x in [0.0, 1.0] {
+            pos.extend([x, y, 0.0]);
+            joints.push([0u16, 1, 0, 0]);
+            weights.extend([1.0 - w_top, w_top, 0.0, 0.0]);
+        }
+    }
+    for row in 0..4u32 {
+        let a = 2 * row;
+        idx.extend([a, a + 1, a + 3, a, a + 3, a + 2]);
+    }
+    let strip = json!({ "name": "strip", "primitives": [{
+        "attributes": {
+            "POSITION": b.floats("VEC3", &pos),
+            "JOINTS_0": b.joints(&joints),
+            "WEIGHTS_0": b.floats("VEC4", &weights),
+        },
+        "indices": b.indices(&idx),
+    }]});
+    let ibm: Vec<f32> = [glam::Mat4::IDENTITY, glam::Mat4::from_translation(glam::Vec3::new(0.0, -1.0, 0.0))]
+        .iter()
+        .flat_map(|m| m.to_cols_array())
+        .collect();
+    let ibm = b.floats("MAT4", &ibm);
+    let q30 = glam::Quat::from_rotation_z(30f32.to_radians());
+    let bend_t = b.floats("SCALAR", &[0.0, 1.0, 2.0]);
+    let bend_v = b.floats("VEC4", &[0.0, 0.0, 0.0, 1.0, q30.x, q30.y, q30.z, q30.w, 0.0, 0.0, 0.0, 1.0]);
+    let doc = json!({
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "name": "strip", "mesh": 0, "skin": 0 },
+            { "name": "root", "children": [2] },
+            { "name": "top", "translation": [0.0, 1.0, 0.0] },
+        ],
+        "meshes": [strip],
+        "skins": [{ "joints": [1, 2], "inverseBindMatrices": ibm }],
+        "animations": [
+            { "name": "bend", "channels": [{ "sampler": 0, "target": { "node": 2, "path": "rotation" } }],
+              "samplers": [{ "input": bend_t, "output": bend_v, "interpolation": "LINEAR" }] },
+        ],
+    });
+    (b, doc)
+}
+
 /// The arm of `examples/arm.gltf` (24 rings of 16 vertices).
 pub fn example_arm() -> (GltfBuilder, Value) {
     two_bone_arm(24, 16)

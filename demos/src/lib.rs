@@ -25,10 +25,11 @@ pub fn assets_dir() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets"))
 }
 
-/// The binaries' `main`: print the error with its causes as `error: …` and exit with status 1.
+/// The binaries' `main`: print the error with its causes as `error: …` and exit with status 1. Input quoted in
+/// the message is cut short (`engine::io::shorten`).
 pub fn exit_on_error(result: anyhow::Result<()>) {
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", engine::io::shorten(&format!("{e:#}")));
         std::process::exit(1);
     }
 }

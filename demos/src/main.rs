@@ -3,6 +3,7 @@
 use anyhow::Context;
 use clap::Parser;
 use engine::gpu::{Gpu, GpuDesc};
+use engine::io::excerpt;
 use engine::renderer::{RenderSettings, Renderer};
 use std::path::{Path, PathBuf};
 
@@ -15,8 +16,17 @@ const MAX_SPP: u32 = 1 << 16;
 const SPP_PER_FRAME: u32 = 64;
 /// Largest `--exposure`: beyond it a tone-mapped image is white wherever anything is lit.
 const MAX_EXPOSURE: f32 = 1e6;
+/// Smallest `--exposure`: below it every radiance the renderer meets maps to black (1e-45 was taken, a denormal).
+const MIN_EXPOSURE: f32 = 1e-6;
+/// Largest `--env-rotation` (degrees) and `--env-spin` (degrees per second) in magnitude: f32 still resolves the
+/// angle to 0.01° there (1e38 was taken, an angle with no digits left below 10³¹).
+const MAX_DEGREES: f32 = 1e5;
+/// The longest `--name`: the file name `<name>.exr` must fit the file system's 255 bytes.
+const MAX_NAME_BYTES: usize = 255 - ".exr".len();
 /// A long run reports progress on stderr this often (seconds; `DEMO_PROGRESS_S` overrides, 0: every frame).
 const PROGRESS_EVERY_S: f64 = 2.0;
+/// Largest `DEMO_PROGRESS_S`: a day.
+const MAX_PROGRESS_S: f64 = 86400.0;
 
 #[derive(Parser, Debug)]
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
@@ -39,18 +49,21 @@ struct Args {
     /// Shade per vertex (interpolated) instead of per pixel.
     #[arg(long)]
     per_vertex: bool,
-    /// Image width in pixels (default: 640 on a GPU, 320 on a CPU adapter such as lavapipe, where the
+    /// Image width in pixels, 1 to 16384 (default: 640 on a GPU, 320 on a CPU adapter such as lavapipe, where the
     /// default isg frame would otherwise take tens of seconds).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..=engine::renderer::MAX_RESOLUTION as i64))]
     width: Option<u32>,
-    /// Image height in pixels (default: 480 on a GPU, 240 on a CPU adapter).
-    #[arg(long)]
+    /// Image height in pixels, 1 to 16384 (default: 480 on a GPU, 240 on a CPU adapter).
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..=engine::renderer::MAX_RESOLUTION as i64))]
     height: Option<u32>,
     /// Environment map (.exr or .hdr, equirectangular, row 0 at the zenith) instead of the scene's (every scene
     /// loads it, except the furnace, which refuses it: its constant environment is what it tests).
     #[arg(long)]
     env: Option<PathBuf>,
-    /// Rotate the environment about +y by DEG degrees (finite; the viewer's E key turns it further in 30° steps).
+    /// Rotate the environment about +y by DEG degrees (within ±100000; the viewer's E key turns it further in 30°
+    /// steps).
     #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = parse_rotation, allow_negative_numbers = true)]
     env_rotation: f32,
     /// Turn the environment continuously about +y by DEG degrees per second of animation time (frame f at f/30 s,
@@ -59,7 +72,7 @@ struct Args {
     /// key: ~0.7 s at 32×24 on lavapipe), so it is an event per frame, not a shader rotation.
     #[arg(long, value_name = "DEG", value_parser = parse_rotation, allow_negative_numbers = true)]
     env_spin: Option<f32>,
-    /// Exposure multiplier before tone mapping (a number in (0, 1e6]).
+    /// Exposure multiplier before tone mapping (a number in [1e-6, 1e6]).
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure, allow_negative_numbers = true)]
     exposure: f32,
     /// Frames to render, at least 1 (times are reported as the median over them) [default: 5; with --spp:
@@ -78,8 +91,8 @@ struct Args {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
     spp: Option<u32>,
     /// Use the Vulkan adapter whose name contains this text (default: $ENGINE_DEVICE if set, else automatic:
-    /// discrete > integrated > virtual > CPU).
-    #[arg(long)]
+    /// discrete > integrated > virtual > CPU). Not empty.
+    #[arg(long, value_parser = clap::builder::NonEmptyStringValueParser::new())]
     device: Option<String>,
     /// Print device memory after the first frame and the allocations the later (steady) frames made.
     #[arg(long, conflicts_with_all = ["window", "capture"])]
@@ -123,28 +136,41 @@ struct Args {
     env_lights_preview: bool,
 }
 
-/// `--exposure`: finite and positive (NaN, infinities, zero and negative values give a black or undefined image).
+/// `--exposure`: in [1e-6, 1e6] (NaN, infinities, zero and negative values give a black or undefined image; a
+/// denormal a black one).
 fn parse_exposure(s: &str) -> Result<f32, String> {
-    let x: f32 = s.trim().parse().map_err(|_| format!("'{s}' is not a number"))?;
-    if x.is_finite() && x > 0.0 && x <= MAX_EXPOSURE {
+    let x: f32 = s.trim().parse().map_err(|_| format!("'{}' is not a number", excerpt(s)))?;
+    if x.is_finite() && (MIN_EXPOSURE..=MAX_EXPOSURE).contains(&x) {
         Ok(x)
     } else {
-        Err(format!("{x} is not in (0, {MAX_EXPOSURE:e}]: the exposure multiplies the radiance before tone mapping"))
+        Err(format!(
+            "{x:e} is not in [{MIN_EXPOSURE:e}, {MAX_EXPOSURE:e}]: the exposure multiplies the radiance before tone mapping"
+        ))
     }
 }
 
-/// `--env-rotation`: any finite angle in degrees.
+/// `--env-rotation` (degrees) and `--env-spin` (degrees per second): finite, within ±[`MAX_DEGREES`].
 fn parse_rotation(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(format!("'{s}' is not a finite number of degrees")),
+        Ok(x) if x.is_finite() && x.abs() <= MAX_DEGREES => Ok(x),
+        _ => Err(format!("'{}' is not a finite number of degrees in [-{MAX_DEGREES}, {MAX_DEGREES}]", excerpt(s))),
     }
 }
 
-/// `--name`: a file stem inside `--out`, never a path that leaves it or names the folder itself.
+/// `--name`: a file stem inside `--out`, never a path that leaves it or names the folder itself, and short enough
+/// for `<name>.exr` to be a file name (checked here, before any work: it used to fail after the frame rendered).
 fn parse_name(s: &str) -> Result<String, String> {
     if s.is_empty() || s == "." || s == ".." || s.contains(['/', '\\', '\0']) {
-        Err(format!("'{s}' is not a file name (it must be non-empty, without '/' or '\\', and not '.' or '..')"))
+        Err(format!(
+            "'{}' is not a file name (it must be non-empty, without '/' or '\\', and not '.' or '..')",
+            excerpt(s)
+        ))
+    } else if s.len() > MAX_NAME_BYTES {
+        Err(format!(
+            "'{}' is {} bytes: a name holds at most {MAX_NAME_BYTES} (the file <name>.exr must fit 255 bytes)",
+            excerpt(s),
+            s.len()
+        ))
     } else {
         Ok(s.to_string())
     }
@@ -170,10 +196,31 @@ fn parse_args() -> Args {
          given keep the material's values:\n{}",
         engine::scene::brdf_help()
     );
-    let cmd = Args::command()
+    let mut cmd = Args::command()
         .mut_arg("technique", |a| a.long_help(technique_help))
         .mut_arg("brdf", |a| a.long_help(brdf_help));
-    Args::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+    let args = cmd.try_get_matches_from_mut(std::env::args_os()).and_then(|m| Args::from_arg_matches(&m));
+    let args = args.unwrap_or_else(|e| exit_on_usage_error(e));
+    // clap skips `requires = "window"` when an option that conflicts with --window is given (--frames,
+    // --capture): the run then ignored --exit-after and exited 0.
+    if args.exit_after.is_some() && !args.window {
+        let e = cmd.error(
+            clap::error::ErrorKind::MissingRequiredArgument,
+            "--exit-after applies to --window only (it counts presented frames)",
+        );
+        exit_on_usage_error(e);
+    }
+    args
+}
+
+/// Print a usage error as clap does, but with any input it quotes cut short (`engine::io::shorten`: a 100 kB
+/// value was echoed whole), and exit with its status (2). Help and version go out unchanged.
+fn exit_on_usage_error(e: clap::Error) -> ! {
+    if !e.use_stderr() {
+        e.exit();
+    }
+    eprint!("{}", engine::io::shorten(&e.render().to_string()));
+    std::process::exit(e.exit_code());
 }
 
 /// Samples per frame for `--spp n`: ⌈n / 64⌉ frames, spread evenly (counts differ by at most one and sum to
@@ -208,10 +255,27 @@ fn check_output_file(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The progress interval: `DEMO_PROGRESS_S` (a number of seconds ≥ 0; 0: every frame), else
+/// [`PROGRESS_EVERY_S`]. A value that is not such a number is an error naming it (it used to be ignored).
+fn progress_interval() -> anyhow::Result<f64> {
+    match std::env::var("DEMO_PROGRESS_S") {
+        Err(std::env::VarError::NotPresent) => Ok(PROGRESS_EVERY_S),
+        Err(std::env::VarError::NotUnicode(v)) => anyhow::bail!("DEMO_PROGRESS_S={v:?}: not a number of seconds"),
+        Ok(v) => match v.trim().parse::<f64>() {
+            Ok(s) if s.is_finite() && (0.0..=MAX_PROGRESS_S).contains(&s) => Ok(s),
+            _ => anyhow::bail!(
+                "DEMO_PROGRESS_S={}: not a number of seconds in [0, {MAX_PROGRESS_S}] (0: a line every frame)",
+                excerpt(&v)
+            ),
+        },
+    }
+}
+
 /// Everything the arguments say that can be checked without a GPU: the technique spec (each key once), the
-/// reference-only options, the output folders and files.
+/// reference-only options, the progress interval, the output folders and files.
 fn check_args(args: &Args) -> anyhow::Result<()> {
-    let (technique, _) = engine::passes::shade::parse_technique(&args.technique)?;
+    progress_interval()?;
+    let (technique, _) = engine::passes::shade::parse_technique(&args.technique).context("--technique")?;
     if args.spp.is_some() && technique.name != engine::passes::shade::reference::ENTRY.name {
         anyhow::bail!(
             "--spp applies to --technique reference only ('{}' renders one deterministic image per frame)",
@@ -562,11 +626,8 @@ struct Progress {
 
 impl Progress {
     fn new(frames: u32) -> Self {
-        let every = std::env::var("DEMO_PROGRESS_S")
-            .ok()
-            .and_then(|v| v.trim().parse::<f64>().ok())
-            .filter(|s| s.is_finite() && *s >= 0.0)
-            .unwrap_or(PROGRESS_EVERY_S);
+        // Checked before any work (check_args).
+        let every = progress_interval().unwrap_or(PROGRESS_EVERY_S);
         Self { frames, every, start: std::time::Instant::now(), last: 0.0 }
     }
 
@@ -606,9 +667,16 @@ mod tests {
 
     #[test]
     fn exposure_and_name_parsers() {
-        for bad in ["nan", "NaN", "inf", "-inf", "-1", "0", "1e7", "x", ""] {
+        for bad in ["nan", "NaN", "inf", "-inf", "-1", "0", "1e7", "x", "", "1e-45", "9e-7"] {
             assert!(parse_exposure(bad).is_err(), "{bad}");
         }
+        assert_eq!(parse_exposure("1e-6"), Ok(1e-6));
+        for bad in ["1e38", "-1e38", "100001", "nan", "inf"] {
+            assert!(parse_rotation(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_rotation("-720"), Ok(-720.0));
+        assert!(parse_name(&"n".repeat(MAX_NAME_BYTES + 1)).is_err());
+        assert!(parse_name(&"n".repeat(MAX_NAME_BYTES)).is_ok());
         assert_eq!(parse_exposure("2.5"), Ok(2.5));
         for bad in ["", ".", "..", "a/b", "a\\b", "/abs"] {
             assert!(parse_name(bad).is_err(), "{bad:?}");

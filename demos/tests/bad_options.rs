@@ -1,6 +1,6 @@
 //! `demo` options that mean nothing or cannot be met (issue 14, defects 5–8): each is honoured exactly or
 //! refused with a message naming it (exit status ≠ 0, never a signal or a panic), before any GPU work where the
-//! arguments alone decide. The README's "bad input" table lists the same cases.
+//! arguments alone decide. docs/bad-input.md lists the same cases.
 //!
 //! - 5: `ENGINE_DEVICE` chooses the adapter when `--device` is not given; `--device` wins over it.
 //! - 6: `--spp` outside the reference, `--spp 0`, beyond the maximum, `--frames 0`, `--capture 0`, `--exposure`
@@ -99,6 +99,77 @@ fn meaningless_or_impossible_options_are_refused_before_the_gpu() {
         let mut all = TINY.to_vec();
         all.extend_from_slice(args);
         assert_refused_early(&all, needles);
+    }
+}
+
+/// Issue 38, item 6: options that were refused without naming the option or its range, refused only after the
+/// frame rendered, or accepted silently. Each is refused before the GPU, naming the option and what it accepts;
+/// clap's usage errors exit 2 (as the README's table says), ours 1.
+#[test]
+fn options_name_themselves_and_their_range() {
+    let long_name = "n".repeat(300);
+    let cases: &[(&[&str], &[&str], i32)] = &[
+        (&["--width", "-1"], &["--width", "-1 is not in 1..=16384"], 2),
+        (&["--height", "-7"], &["--height", "-7 is not in 1..=16384"], 2),
+        (&["--width", "0"], &["--width", "0 is not in 1..=16384"], 2),
+        (&["--width", "99999"], &["--width", "99999 is not in 1..=16384"], 2),
+        (&["--name", &long_name], &["--name", "300 bytes", "at most 251"], 2),
+        (&["--frames", "1", "--exit-after", "1"], &["--exit-after", "--window"], 2),
+        (&["--capture", "1", "--exit-after", "1"], &["--exit-after", "--window"], 2),
+        (&["--env-rotation", "1e38"], &["--env-rotation", "[-100000, 100000]"], 2),
+        (&["--env-rotation", "-1e38"], &["--env-rotation", "[-100000, 100000]"], 2),
+        (&["--env-spin", "1e38"], &["--env-spin", "[-100000, 100000]"], 2),
+        (&["--exposure", "1e-45"], &["--exposure", "[1e-6, 1e6]"], 2),
+        (&["--device", ""], &["--device", "a value is required"], 2),
+        (&["--technique", "shexp:theta_min=90,theta_max=0"], &["--technique", "shexp", "theta_min=90", "below 90"], 1),
+        (&["--technique", "shexp:theta_min=30,theta_max=20"], &["--technique: shexp: theta_min=30", "theta_max=20"], 1),
+    ];
+    for (args, needles, code) in cases {
+        let out = temp("ranges");
+        let (o, _, stderr) = run({
+            let mut c = demo(&[&["--scene", "sheet"][..], args].concat());
+            if !args.contains(&"--technique") {
+                c.args(["--technique", "none"]);
+            }
+            c.arg("--out").arg(&out);
+            c
+        });
+        let what = format!("demo {args:?}");
+        assert_refused(&o, &stderr, &what, needles);
+        assert_eq!(o.status.code(), Some(*code), "{what}: exit status\n{stderr}");
+        assert!(!stderr.contains(GPU_SET_UP), "{what}: refused only after the GPU was set up:\n{stderr}");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    // DEMO_PROGRESS_S that is not a number of seconds: an error naming it, before the GPU.
+    for bad in ["abc", "-1", "nan", "1e9"] {
+        let (o, _, stderr) = run({
+            let mut c = demo(&["--scene", "sheet", "--technique", "none", "--width", "8", "--height", "6"]);
+            c.env("DEMO_PROGRESS_S", bad).arg("--out").arg(temp("progress"));
+            c
+        });
+        assert_refused(&o, &stderr, bad, &[&format!("DEMO_PROGRESS_S={bad}"), "not a number of seconds"]);
+        assert!(!stderr.contains(GPU_SET_UP), "DEMO_PROGRESS_S={bad}: refused only after the GPU was set up");
+    }
+}
+
+/// Issue 38, item 8: a usage error or a spec error quoting a 100 kB value prints a short excerpt of it.
+#[test]
+fn errors_quote_huge_values_as_excerpts() {
+    let huge = "k".repeat(100_000);
+    let technique = format!("isg:{huge}=1");
+    let brdf = format!("{huge}:s=1");
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["--technique", &technique],
+        vec!["--brdf", &brdf],
+        vec!["--exposure", &huge],
+        vec!["--env-rotation", &huge],
+        vec!["--name", &huge],
+        vec!["--scene", &huge],
+    ];
+    for args in cases {
+        let (o, _, stderr) = run(demo(&[&["--width", "8", "--height", "6"][..], &args].concat()));
+        assert_refused(&o, &stderr, args[0], &[args[0].trim_start_matches("--"), "bytes in all"]);
+        assert!(stderr.len() < 2000, "{}: {} bytes of message:\n{}", args[0], stderr.len(), &stderr[..2000]);
     }
 }
 

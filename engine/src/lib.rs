@@ -14,6 +14,7 @@
 //! 6. `converge` (drives whole frames: the reference's convergence loops).
 
 pub use engine_blockers as blockers;
+pub use engine_io as io;
 pub use engine_math as math;
 
 pub mod gpu;

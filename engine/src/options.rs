@@ -3,6 +3,7 @@
 //! values are errors that name the key and what it accepts (Mitsuba's unqueried-property rule). The
 //! same schema generates the `--help` text and the README's option tables.
 
+use engine_io::excerpt;
 use std::fmt::Write as _;
 
 /// What values a key takes.
@@ -91,8 +92,9 @@ pub fn split_spec(spec: &str) -> Result<(&str, Pairs), OptionError> {
     let (name, rest) = spec.split_once(':').unwrap_or((spec, ""));
     let mut pairs = Vec::new();
     for part in rest.split(',').filter(|p| !p.trim().is_empty()) {
-        let (k, v) =
-            part.split_once('=').ok_or_else(|| OptionError(format!("'{spec}': option '{part}' is not key=value")))?;
+        let (k, v) = part
+            .split_once('=')
+            .ok_or_else(|| OptionError(format!("'{}': option '{}' is not key=value", excerpt(spec), excerpt(part))))?;
         pairs.push((k.trim().to_string(), v.trim().to_string()));
     }
     Ok((name.trim(), pairs))
@@ -132,17 +134,18 @@ pub fn parse(what: &str, schema: &[OptionSpec], pairs: &[(String, String)]) -> R
         let Some(s) = schema.iter().find(|s| s.key == k || s.aliases.contains(&k.as_str())) else {
             let keys: Vec<&str> = schema.iter().map(|s| s.key).collect();
             return Err(OptionError(if keys.is_empty() {
-                format!("{what} has no options (got '{k}')")
+                format!("{what} has no options (got '{}')", excerpt(k))
             } else {
-                format!("{what} has no option '{k}' (options: {})", keys.join(", "))
+                format!("{what} has no option '{}' (options: {})", excerpt(k), keys.join(", "))
             }));
         };
         // A key given twice (also through an alias) has no one meaning: refuse it rather than keep either.
         if values.iter().any(|(key, _, given)| *key == s.key && *given) {
             return Err(OptionError(format!("{what} option '{}' is given more than once", s.key)));
         }
-        let value = parse_value(s.kind, v)
-            .ok_or_else(|| OptionError(format!("{what} option '{}' = '{v}': expected {}", s.key, s.kind.accepted())))?;
+        let value = parse_value(s.kind, v).ok_or_else(|| {
+            OptionError(format!("{what} option '{}' = '{}': expected {}", s.key, excerpt(v), s.kind.accepted()))
+        })?;
         values.retain(|(key, _, _)| *key != s.key);
         values.push((s.key, value, true));
     }

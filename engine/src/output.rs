@@ -40,21 +40,28 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()
 }
 
 /// Read a PNG as 8-bit RGBA: (width, height, RGBA8 bytes). Palette, grey and grey-alpha images are expanded,
-/// 16-bit channels reduced to their high byte.
+/// 16-bit channels reduced to their high byte. The file is read through `engine_io` (a regular file of at most
+/// `Limit::IMAGE`).
 pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), OutputError> {
-    let file = std::fs::File::open(path).map_err(|e| err(path, e))?;
-    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    let bytes = engine_io::read(path, engine_io::Limit::IMAGE).map_err(|e| err(path, e.message()))?;
+    decode_png(&bytes).map_err(|m| err(path, m))
+}
+
+/// [`read_png`] from the file's bytes. The decoder's default limit (64 MiB of decoded image) bounds what a
+/// header can ask for.
+pub fn decode_png(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), String> {
+    let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
     dec.set_transformations(png::Transformations::normalize_to_color8());
-    let mut reader = dec.read_info().map_err(|e| err(path, e))?;
-    let mut buf = vec![0; reader.output_buffer_size().ok_or_else(|| err(path, "image too large"))?];
-    let info = reader.next_frame(&mut buf).map_err(|e| err(path, e))?;
+    let mut reader = dec.read_info().map_err(|e| e.to_string())?;
+    let mut buf = vec![0; reader.output_buffer_size().ok_or("image too large")?];
+    let info = reader.next_frame(&mut buf).map_err(|e| e.to_string())?;
     buf.truncate(info.buffer_size());
     let rgba = match info.color_type {
         png::ColorType::Rgba => buf,
         png::ColorType::Rgb => buf.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
         png::ColorType::Grayscale => buf.iter().flat_map(|&g| [g, g, g, 255]).collect(),
         png::ColorType::GrayscaleAlpha => buf.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
-        other => return Err(err(path, format!("unsupported PNG colour type {other:?}"))),
+        other => return Err(format!("unsupported PNG colour type {other:?}")),
     };
     Ok((info.width, info.height, rgba))
 }

@@ -151,10 +151,18 @@ pub struct Renderer {
     time: f64,
 }
 
+/// The widest or tallest image the renderer makes, in pixels (Vulkan's guaranteed 2D image size is 4096; lavapipe
+/// and current GPUs take 16384).
+pub const MAX_RESOLUTION: u32 = 16384;
+
 impl Renderer {
     pub fn new(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> Result<Self> {
-        if settings.width == 0 || settings.height == 0 || settings.width > 16384 || settings.height > 16384 {
-            return Err(GpuError::Other(format!("bad resolution {}x{}", settings.width, settings.height)));
+        let side = 1..=MAX_RESOLUTION;
+        if !side.contains(&settings.width) || !side.contains(&settings.height) {
+            return Err(GpuError::Other(format!(
+                "resolution {}x{}: width and height must be in 1..={MAX_RESOLUTION}",
+                settings.width, settings.height
+            )));
         }
         let (w, h) = (settings.width, settings.height);
         let mut p = Parts::default();

@@ -369,17 +369,28 @@ fn spheres_of(
             let dir = opts.cache.clone().unwrap_or_else(cache_dir);
             let name = mesh.name.clone();
             let mut announced = false;
-            let (spheres, cache, fitted) = engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
+            let cached = engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
                 if !announced {
-                    eprintln!("fitting {n} blocker spheres to '{name}' of {} (cached after)...", file.display());
+                    eprintln!("fitting blocker spheres to '{name}' of {} (cached after)...", file.display());
                     announced = true;
                 }
                 eprintln!("  iteration {:>3}: outside volume {:.4e} {}", p.iteration, p.outside_sum, p.message);
-            })?;
-            if fitted {
-                eprintln!("fitted {} spheres to '{name}', cached in {}", spheres.len(), cache.display());
+            })
+            .with_context(|| format!("{}: fitting {n} blocker spheres to mesh '{name}' (--spheres)", file.display()))?;
+            if let Some((asked, (surface, interior))) = cached.capped {
+                eprintln!(
+                    "warning: {}: mesh '{name}' supports at most {} blocker spheres (its {surface} surface and \
+                     {interior} interior sample points): using {}, not the {asked} asked (--spheres, or a scene \
+                     file's `spheres`)",
+                    file.display(),
+                    surface + interior,
+                    cached.spheres.len()
+                );
             }
-            Ok(Some(spheres))
+            if cached.fitted {
+                eprintln!("fitted {} spheres to '{name}', cached in {}", cached.spheres.len(), cached.file.display());
+            }
+            Ok(Some(cached.spheres))
         }
         Blockers::Files(files) => {
             let f = files.get(k).ok_or_else(|| {
@@ -615,8 +626,11 @@ impl MaterialSpec {
     /// `base` with the keys given replaced.
     fn build_from(&self, base: Material, key: &str) -> Result<Material> {
         let mut m = base;
+        // The one rule for material values (engine::scene::check_material_values): non-finite ones are refused.
+        let finite = |what: &str, v: &[f32]| engine::scene::check_material_values(&format!("{key}.{what}"), v);
         let color = |v: [f32; 3], what: &str| -> Result<Vec3> {
-            ensure!(v.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c)), "{key}.{what}: {v:?} is not in [0, 1]");
+            finite(what, &v).map_err(|e| anyhow!(e))?;
+            ensure!(v.iter().all(|c| (0.0..=1.0).contains(c)), "{key}.{what}: {v:?} is not in [0, 1]");
             Ok(Vec3::from(v))
         };
         if let Some(d) = self.diffuse {
@@ -626,7 +640,8 @@ impl MaterialSpec {
             m.specular = color(s, "specular")?;
         }
         if let Some(s) = self.shininess {
-            ensure!(s.is_finite() && (1e-3..=1e6).contains(&s), "{key}.shininess: {s} is not in [0.001, 1e6]");
+            finite("shininess", &[s]).map_err(|e| anyhow!(e))?;
+            ensure!((1e-3..=1e6).contains(&s), "{key}.shininess: {s} is not in [0.001, 1e6]");
             m.shininess = s;
         }
         if let Some(b) = &self.brdf {
@@ -636,9 +651,10 @@ impl MaterialSpec {
     }
 }
 
-/// Parse a scene file's text (strict). Errors give the line, the column and the key (the toml crate's message).
+/// Parse a scene file's text (strict). Errors give the line, the column and the key (the toml crate's message,
+/// with quoted input cut by `engine::io::shorten`: it showed a 100 kB key or line whole).
 pub fn parse_scene_file(text: &str) -> std::result::Result<SceneFile, String> {
-    toml::from_str(text).map_err(|e| e.to_string())
+    toml::from_str(text).map_err(|e| engine::io::shorten(&e.to_string()))
 }
 
 /// Rotate a lat-long environment about +y by `degrees` ([`LatLongMap::rotated_y`]).
@@ -648,8 +664,7 @@ pub fn rotate_environment(env: &LatLongMap, degrees: f32) -> LatLongMap {
 
 /// `--scene FILE.toml`.
 pub fn scene_file(path: &Path, env: Option<&Path>, assets: &Path, opts: &UserOptions) -> Result<UserScene> {
-    ensure!(path.exists(), "{}: file not found", path.display());
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let text = engine::io::read_to_string(path, engine::io::Limit::SCENE)?;
     let spec = parse_scene_file(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     build_scene_file(path, spec, env, assets, opts).with_context(|| format!("scene file {}", path.display()))
 }

@@ -99,7 +99,9 @@ impl SphereSetFile {
             format: Option<String>,
             version: Option<u32>,
         }
-        let fmt_err = |message: String| BlockerError::Format { path: path.into(), message };
+        // serde_json quotes unknown keys and wrong strings whole: cut them.
+        let fmt_err =
+            |message: String| BlockerError::Format { path: path.into(), message: engine_io::shorten(&message) };
         let header: Header = serde_json::from_str(text).map_err(|e| fmt_err(e.to_string()))?;
         if header.format.as_deref() != Some(FORMAT_NAME) {
             return Err(fmt_err(format!("\"format\" must be \"{FORMAT_NAME}\", found {:?}", header.format)));
@@ -121,9 +123,10 @@ impl SphereSetFile {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
 
+    /// Reads `path` through `engine_io` (a regular file of at most `Limit::SPHERES`).
     pub fn load(path: &Path) -> Result<Self, BlockerError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| BlockerError::Io { path: path.display().to_string(), message: e.to_string() })?;
+        let text = engine_io::read_to_string(path, engine_io::Limit::SPHERES)
+            .map_err(|e| BlockerError::Io { path: path.display().to_string(), message: e.message() })?;
         Self::from_json(&text, &path.display().to_string())
     }
 
@@ -172,6 +175,8 @@ pub fn load_or_fit(
     let reason = match SphereSetFile::load(cache) {
         Ok(file) if file.mesh_hash != mesh.content_hash() => "mesh changed".to_string(),
         Ok(file) if file.settings != *settings => "settings changed".to_string(),
+        // Written before a sheet's spheres had a floor radius (fit.rs, sheet_radius): they block nothing.
+        Ok(file) if file.spheres.iter().all(|s| s[3] == 0.0) => "every sphere has radius 0".to_string(),
         Ok(file) => return Ok(CacheOutcome::Hit(file.spheres()?)),
         Err(e) => format!("no usable cache ({e})"),
     };

@@ -668,7 +668,13 @@ fn fit_spheres_with_samples(
             report(iteration, best_e, tried, accepted, format!("teleport rejected (E would be {e:.4})"));
         }
     }
-    let spheres = best.centers.iter().zip(&best.radii).map(|(&c, &r)| Sphere::new(c, r)).collect();
+    // A surface without volume (a sheet, an open strip, anything thinner than the interior grid) has no interior
+    // samples: a cluster of one surface point got radius 0, and with as many spheres as sample points every
+    // sphere did, so the mesh blocked nothing (issue 38: a skinned strip's shadow vanished under `shexp`'s
+    // clusters, and the other techniques showed only the bounding spheres of their BVH nodes).
+    let floor =
+        if samples.points.len() == samples.surface_count { sheet_radius(mesh, samples.surface_count) } else { 0.0 };
+    let spheres = best.centers.iter().zip(&best.radii).map(|(&c, &r)| Sphere::new(c, r.max(floor))).collect();
     Ok(FitResult {
         spheres,
         outside_sum: best_e,
@@ -678,6 +684,27 @@ fn fit_spheres_with_samples(
         surface_samples: samples.surface_count,
         interior_samples: samples.points.len() - samples.surface_count,
     })
+}
+
+/// The smallest radius of a sphere fitted to a surface without volume: each of its `surface_samples` points stands
+/// for 1/`surface_samples` of the mesh's area A, and a sphere of radius √(A / (π · surface_samples)) centred on
+/// the surface covers a disc of that area. (The spheres of a volume are bounded by its interior samples instead.)
+pub fn sheet_radius(mesh: &Mesh, surface_samples: usize) -> f64 {
+    let area: f64 = (0..mesh.triangles().len()).map(|t| mesh.triangle_area(t)).sum();
+    (area / (PI * surface_samples.max(1) as f64)).sqrt()
+}
+
+/// The sample points of `mesh` the fit with `settings` works on (surface, interior): at most that many spheres
+/// can be fitted to it (each sphere's cluster holds at least one point). The interior grid is built only when the
+/// surface points alone (every vertex and triangle midpoint) are fewer than `settings.count`.
+pub fn sample_points(mesh: &Mesh, settings: &FitSettings) -> (usize, usize) {
+    let surface = mesh.positions().len() + mesh.triangles().len();
+    if settings.count <= surface {
+        return (surface, 0);
+    }
+    let tree = WindingTree::new(mesh);
+    let samples = FitSamples::new(mesh, &tree, settings.grid_resolution);
+    (samples.surface_count, samples.points.len() - samples.surface_count)
 }
 
 /// Baseline: k-means (Lloyd) on the same sample points from the same farthest-point initial centres,

@@ -6,6 +6,11 @@
 use glam::DVec3;
 use std::f64::consts::PI;
 
+/// The largest magnitude of a sphere's centre coordinates and radius: the GPU holds spheres in f32 and its
+/// kernels square distances and radii, so 1e18 (squared 1e36, summed over three axes still far below
+/// f32::MAX ≈ 3.4e38) is the bound, not f32::MAX itself (1e38 squared is infinite).
+pub const MAX_SPHERE_COORDINATE: f64 = 1e18;
+
 /// A sphere `(center, radius)`. A radius of zero is a valid degenerate sphere (a point): it blocks
 /// nothing but is kept so that indices stay stable. Negative or non-finite values are rejected by
 /// [`Sphere::validate`].
@@ -37,19 +42,27 @@ impl Sphere {
         Self::new(DVec3::new(a[0], a[1], a[2]), a[3])
     }
 
-    /// Checks the centre is finite and the radius finite and non-negative.
+    /// Checks the centre is finite and the radius finite and non-negative, and that every coordinate and the
+    /// radius lie within ±[`MAX_SPHERE_COORDINATE`] (a value finite in f64 can be infinite once the GPU holds it
+    /// in f32: a radius of 1e39 was accepted here and the sphere silently vanished on the GPU).
     pub fn validate(&self, index: usize) -> Result<(), crate::BlockerError> {
+        let invalid = |reason: String| Err(crate::BlockerError::InvalidSphere { index, reason });
         if !self.center.is_finite() {
-            return Err(crate::BlockerError::InvalidSphere {
-                index,
-                reason: format!("centre {:?} is not finite", self.center),
-            });
+            return invalid(format!("centre {:?} is not finite", self.center));
         }
         if !self.radius.is_finite() || self.radius < 0.0 {
-            return Err(crate::BlockerError::InvalidSphere {
-                index,
-                reason: format!("radius {} is negative or not finite", self.radius),
-            });
+            return invalid(format!("radius {} is negative or not finite", self.radius));
+        }
+        for (name, v) in [("centre x", self.center.x), ("centre y", self.center.y), ("centre z", self.center.z)]
+            .into_iter()
+            .chain([("radius", self.radius)])
+        {
+            if v.abs() > MAX_SPHERE_COORDINATE {
+                return invalid(format!(
+                    "{name} {v:e} is beyond ±{MAX_SPHERE_COORDINATE:e}, the range the GPU's f32 arithmetic holds \
+                     (squared distances must stay below f32::MAX ≈ 3.4e38)"
+                ));
+            }
         }
         Ok(())
     }

@@ -23,7 +23,7 @@ pub mod mesh;
 pub mod plane;
 pub mod traverse;
 
-pub use geom::{Cone, Sphere};
+pub use geom::{Cone, Sphere, MAX_SPHERE_COORDINATE};
 pub use plane::BlockerPlane;
 
 /// Errors at this crate's boundary. Every bad input named in the blockers issue maps to one of these;

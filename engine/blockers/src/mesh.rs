@@ -38,11 +38,17 @@ impl Mesh {
         Ok(mesh)
     }
 
-    /// Loads every model of an OBJ file (positions and faces only; polygons are triangulated).
+    /// Loads every model of an OBJ file (positions and faces only; polygons are triangulated). The file is read
+    /// through `engine_io` (a regular file of at most `Limit::MESH`; its `.mtl` is not read) and a panic of the
+    /// `tobj` parser is contained quietly as an error.
     pub fn load_obj(path: &Path) -> Result<Self, BlockerError> {
+        let obj_err = |message: String| BlockerError::Obj { path: path.display().to_string(), message };
+        let bytes = engine_io::read(path, engine_io::Limit::MESH).map_err(|e| obj_err(e.message()))?;
         let options = tobj::LoadOptions { triangulate: true, single_index: false, ..Default::default() };
-        let (models, _) = tobj::load_obj(path, &options)
-            .map_err(|e| BlockerError::Obj { path: path.display().to_string(), message: e.to_string() })?;
+        let no_materials = |_: &Path| -> tobj::MTLLoadResult { Err(tobj::LoadError::OpenFileFailed) };
+        let (models, _) = engine_io::catch_quiet(|| tobj::load_obj_buf(&mut &bytes[..], &options, no_materials))
+            .map_err(|_| obj_err("the OBJ parser panicked on it".into()))?
+            .map_err(|e| obj_err(e.to_string()))?;
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
         for model in &models {

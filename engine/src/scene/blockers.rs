@@ -121,36 +121,62 @@ pub fn fitted_spheres(mesh: &Mesh, settings: &FitSettings, cache: &Path) -> Resu
     Ok(outcome.spheres().to_vec())
 }
 
+/// What [`cached_spheres`] made or found.
+#[derive(Clone, Debug)]
+pub struct CachedSpheres {
+    pub spheres: Vec<Sphere>,
+    /// The cache file.
+    pub file: std::path::PathBuf,
+    /// Whether it fitted (the cache missed).
+    pub fitted: bool,
+    /// The count asked, when the mesh supports fewer spheres and that many were fitted instead (see
+    /// [`cached_spheres`]), with the mesh's sample points (surface, interior).
+    pub capped: Option<(usize, (usize, usize))>,
+}
+
 /// The fit-once sphere set of `mesh` in the folder `cache_dir`, the file named by the mesh's content hash and the
 /// sphere count (`<hash>-n<count>.spheres.json`), so any number of meshes share one folder and an edited mesh gets
-/// a new file. `progress` sees every fit iteration. Returns the spheres, the file and whether it fitted.
+/// a new file. `progress` sees every fit iteration.
+///
+/// A mesh supports at most as many spheres as the fit has sample points (every vertex, every triangle midpoint and
+/// the interior grid points): when `settings.count` is more, that many are fitted instead and
+/// [`CachedSpheres::capped`] says so (a small model, such as Khronos' 18-point SimpleSkin, was an error under the
+/// default 32 spheres).
 pub fn cached_spheres(
     mesh: &Mesh,
     settings: &FitSettings,
     cache_dir: &Path,
     progress: &mut dyn FnMut(&engine_blockers::fit::FitProgress),
-) -> Result<(Vec<Sphere>, std::path::PathBuf, bool), super::SceneError> {
+) -> Result<CachedSpheres, super::SceneError> {
     let err = |p: &Path, m: String| super::SceneError::invalid(p, m);
     let positions = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     let triangles = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
     let bmesh = engine_blockers::mesh::Mesh::new(positions, triangles)
         .map_err(|e| err(cache_dir, format!("mesh '{}': {e}", mesh.name)))?;
+    let (surface, interior) = engine_blockers::fit::sample_points(&bmesh, settings);
+    let supported = surface + interior;
+    let mut settings = settings.clone();
+    let capped = (settings.count > supported).then_some((settings.count, (surface, interior)));
+    settings.count = settings.count.min(supported);
     let hash = bmesh.content_hash();
     let short: String = hash.rsplit(':').next().unwrap_or("").chars().filter(|c| c.is_ascii_hexdigit()).collect();
     let file = cache_dir.join(format!("{short}-n{}.spheres.json", settings.count));
     std::fs::create_dir_all(cache_dir).map_err(|e| err(cache_dir, format!("cannot create the sphere cache: {e}")))?;
-    let outcome = load_or_fit(&bmesh, &mesh.name, settings, &file, progress).map_err(|e| err(&file, e.to_string()))?;
+    let outcome = load_or_fit(&bmesh, &mesh.name, &settings, &file, progress).map_err(|e| err(&file, e.to_string()))?;
     let fitted = matches!(outcome, CacheOutcome::Fitted { .. });
-    Ok((outcome.spheres().to_vec(), file, fitted))
+    Ok(CachedSpheres { spheres: outcome.spheres().to_vec(), file, fitted, capped })
 }
 
 /// Load a sphere file for `mesh`, refusing one fitted to another mesh (its recorded content hash differs).
 pub fn spheres_for_mesh(mesh: &Mesh, file: &Path) -> Result<Vec<Sphere>, super::SceneError> {
     let err = |m: String| super::SceneError::invalid(file, m);
-    if !file.exists() {
-        return Err(super::SceneError::NotFound { path: file.to_path_buf() });
-    }
-    let set = engine_blockers::file::SphereSetFile::load(file).map_err(|e| err(e.to_string()))?;
+    let text = engine_io::read_to_string(file, engine_io::Limit::SPHERES)?;
+    let set =
+        engine_blockers::file::SphereSetFile::from_json(&text, &file.display().to_string()).map_err(|e| match e {
+            // The format error names the file itself: keep its message only.
+            engine_blockers::BlockerError::Format { message, .. } => err(format!("not a valid sphere file: {message}")),
+            other => err(other.to_string()),
+        })?;
     let positions = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     let triangles = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
     let bmesh = engine_blockers::mesh::Mesh::new(positions, triangles).map_err(|e| err(e.to_string()))?;

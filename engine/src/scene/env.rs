@@ -42,15 +42,17 @@ pub fn load_environment(path: &Path) -> Result<LatLongMap> {
 /// non-finite or negative). The shipped maps in `assets/envmaps` are clean (0; tests/tests/bad_input.rs checks);
 /// the repair is for user files.
 pub fn load_environment_with_repairs(path: &Path) -> Result<(LatLongMap, usize)> {
-    if !path.exists() {
-        return Err(SceneError::NotFound { path: path.to_path_buf() });
-    }
     let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
+    if !matches!(ext.as_str(), "exr" | "hdr" | "pic") {
+        engine_io::check(path, engine_io::Limit::ENVIRONMENT)?;
+        return Err(SceneError::invalid(path, "unknown environment format (expected .exr or .hdr)"));
+    }
+    let data = engine_io::read(path, engine_io::Limit::ENVIRONMENT)?;
     let mut map = match ext.as_str() {
-        "exr" => load_exr(path)?,
-        "hdr" | "pic" => load_hdr(path)?,
-        _ => return Err(SceneError::invalid(path, "unknown environment format (expected .exr or .hdr)")),
+        "exr" => load_exr(path, &data)?,
+        _ => load_hdr(path, &data)?,
     };
+    drop(data);
     if map.width < 2 || map.height < 1 {
         return Err(SceneError::invalid(path, format!("environment map too small ({}x{})", map.width, map.height)));
     }
@@ -73,12 +75,11 @@ pub fn load_environment_with_repairs(path: &Path) -> Result<(LatLongMap, usize)>
     Ok((map, repaired))
 }
 
-fn load_exr(path: &Path) -> Result<LatLongMap> {
+fn load_exr(path: &Path, data: &[u8]) -> Result<LatLongMap> {
     use exr::prelude::*;
-    let data = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
     // The exr crate hands the header's resolution to the closure below, which allocates it: check the
     // headers ourselves first.
-    check_exr_headers(&data).map_err(|m| SceneError::invalid(path, format!("not a valid OpenEXR file: {m}")))?;
+    check_exr_headers(data).map_err(|m| SceneError::invalid(path, format!("not a valid OpenEXR file: {m}")))?;
     // The crate is meant to return errors, but it has panicked on corrupt input before: contain a panic
     // as an error naming the file (sizes are checked above, so nothing here can abort on allocation).
     //
@@ -87,7 +88,7 @@ fn load_exr(path: &Path) -> Result<LatLongMap> {
     // walk, for which the crate asked for 12 TB: tools/fuzz/corpus/exr/abort-12tb-allocation.exr). An
     // oversized resolution gets no storage (every texel write is then skipped) and is refused after reading.
     let refused = std::cell::Cell::new(None);
-    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+    let read = engine_io::catch_quiet(|| {
         read()
             .no_deep_data()
             .largest_resolution_level()
@@ -107,8 +108,8 @@ fn load_exr(path: &Path) -> Result<LatLongMap> {
             )
             .first_valid_layer()
             .all_attributes()
-            .from_buffered(std::io::Cursor::new(&data[..]))
-    }));
+            .from_buffered(std::io::Cursor::new(data))
+    });
     if let Some(m) = refused.take() {
         return Err(SceneError::invalid(path, format!("not a valid OpenEXR file: {m}")));
     }
@@ -233,8 +234,7 @@ fn check_exr_headers(data: &[u8]) -> std::result::Result<(), String> {
 }
 
 /// Radiance RGBE (`#?RADIANCE`), flat or new-style run-length encoded scanlines, `-Y H +X W` only.
-fn load_hdr(path: &Path) -> Result<LatLongMap> {
-    let data = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
+fn load_hdr(path: &Path, data: &[u8]) -> Result<LatLongMap> {
     let bad = |m: &str| SceneError::invalid(path, format!("not a valid Radiance HDR file: {m}"));
     let mut pos = 0;
     let mut line = || -> Option<String> {

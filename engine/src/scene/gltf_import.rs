@@ -20,6 +20,7 @@
 //! ([`GEOMETRY_EXTENSIONS`]). Textures, cameras and lights in the file are ignored.
 
 use super::{Instance, Material, Mesh, Result, SceneError, Skin};
+use engine_io::excerpt;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::collections::HashMap;
 use std::path::Path;
@@ -287,9 +288,14 @@ pub(super) fn read(
     let bad = |m: String| SceneError::invalid(path, m);
     let get = |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d[..]);
     let mut out = GltfScene::default();
-    for m in doc.materials() {
+    for (i, m) in doc.materials().enumerate() {
         let pbr = m.pbr_metallic_roughness();
-        let [r, g, b, _] = pbr.base_color_factor();
+        let [r, g, b, a] = pbr.base_color_factor();
+        // JSON has no NaN, but a number beyond f32 (1e39) arrives as an infinity: the one rule for materials.
+        let what = |key: &str| format!("material {i} ('{}') {key}", excerpt(m.name().unwrap_or("")));
+        super::check_material_values(&what("baseColorFactor"), &[r, g, b, a]).map_err(bad)?;
+        super::check_material_values(&what("metallicFactor"), &[pbr.metallic_factor()]).map_err(bad)?;
+        super::check_material_values(&what("roughnessFactor"), &[pbr.roughness_factor()]).map_err(bad)?;
         out.materials.push(Material::from_metallic_roughness(
             Vec3::new(r, g, b),
             pbr.metallic_factor(),

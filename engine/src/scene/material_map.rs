@@ -46,10 +46,8 @@ impl MaterialMap {
 
     /// The red channel of an 8-bit RGB or RGBA PNG, as t = red / 255.
     pub fn load(path: &Path) -> super::Result<Self> {
-        if !path.exists() {
-            return Err(SceneError::NotFound { path: path.to_path_buf() });
-        }
-        let (w, h, rgba) = crate::output::read_png(path).map_err(|e| SceneError::invalid(path, e.to_string()))?;
+        let bytes = engine_io::read(path, engine_io::Limit::IMAGE)?;
+        let (w, h, rgba) = crate::output::decode_png(&bytes).map_err(|m| SceneError::invalid(path, m))?;
         let values = rgba.chunks_exact(4).map(|p| p[0] as f32 / 255.0).collect();
         Self::new(w, h, values).map_err(|e| SceneError::invalid(path, e))
     }

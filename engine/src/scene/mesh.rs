@@ -7,6 +7,7 @@
 
 use super::gltf_import::GltfScene;
 use super::{Material, Result, SceneError};
+use engine_io::excerpt;
 use glam::Vec3;
 use std::path::Path;
 
@@ -104,13 +105,6 @@ pub fn compute_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect()
 }
 
-fn check_exists(path: &Path) -> Result<()> {
-    if !path.exists() {
-        return Err(SceneError::NotFound { path: path.to_path_buf() });
-    }
-    Ok(())
-}
-
 /// Relative (negative) OBJ indices that reach before the first element, refused before `tobj` sees them: it
 /// adds them to the count unchecked, and `f 1//-11` with one normal overflowed its index arithmetic (a panic
 /// with overflow checks; a wrapped index without). Found by the fuzzer (tools/fuzz/corpus/obj).
@@ -144,22 +138,114 @@ fn check_relative_indices(text: &str) -> std::result::Result<(), String> {
     Ok(())
 }
 
-/// Load every object of an OBJ file as one mesh. Malformed files are errors naming the file: relative indices
-/// are checked first, and a panic inside the `tobj` parser is contained (as for glTF).
-pub fn load_obj(path: &Path) -> Result<Mesh> {
-    check_exists(path)?;
-    let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
-    check_relative_indices(&String::from_utf8_lossy(&bytes))
-        .map_err(|m| SceneError::invalid(path, format!("not a valid OBJ file: {m}")))?;
-    drop(bytes);
-    std::panic::catch_unwind(|| load_obj_unguarded(path))
-        .unwrap_or_else(|_| Err(SceneError::invalid(path, "not a valid OBJ file (the OBJ parser panicked on it)")))
+/// The `.mtl` statements whose values `tobj` parses as colours (three numbers).
+const MTL_COLOURS: &[&str] = &["Ka", "Kd", "Ks", "Ke"];
+/// The `.mtl` statements whose value `tobj` parses as one number.
+const MTL_SCALARS: &[&str] = &["Ns", "Ni", "d"];
+
+/// A `.mtl` file's text checked line by line before `tobj` parses it, as `tobj` would read it: its colour parser
+/// panics on fewer than three numbers (a bare `Kd` was reported as a broken OBJ), and it takes `nan` and `inf`
+/// (`Kd nan` rendered as black). Returns the text to parse: a colour of one number `r` is the spec's `r r r`.
+/// An error is `(line, what is wrong)`. Material values must be finite ([`super::check_material_values`]).
+fn check_mtl(text: &str) -> std::result::Result<String, (usize, String)> {
+    let mut out = String::with_capacity(text.len());
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let keyword = words.next().unwrap_or("");
+        let args: Vec<&str> = words.take_while(|w| !w.starts_with('#')).collect();
+        let number = |w: &str| -> std::result::Result<f32, String> {
+            let x: f32 = w.parse().map_err(|_| format!("`{keyword}`: '{}' is not a number", excerpt(w)))?;
+            super::check_material_values(&format!("`{keyword}` value '{}'", excerpt(w)), &[x])?;
+            Ok(x)
+        };
+        let err = |m: String| (n + 1, m);
+        if MTL_COLOURS.contains(&keyword) {
+            let values = args.iter().map(|w| number(w)).collect::<std::result::Result<Vec<f32>, String>>();
+            match (values.map_err(err)?.as_slice(), args.len()) {
+                (&[r], 1) => {
+                    out.push_str(&format!("{keyword} {r} {r} {r}\n"));
+                    continue;
+                }
+                // More than three: tobj reads the first three (as before).
+                (_, k) if k >= 3 => {}
+                (_, k) => return Err(err(format!("`{keyword}` needs three numbers (r g b) or one; it has {k}"))),
+            }
+        } else if MTL_SCALARS.contains(&keyword) {
+            match args.as_slice() {
+                [w] => {
+                    number(w).map_err(err)?;
+                }
+                _ => return Err(err(format!("`{keyword}` needs one number; it has {}", args.len()))),
+            }
+        } else if keyword == "illum" && !matches!(args.as_slice(), [w] if w.parse::<u8>().is_ok()) {
+            return Err(err("`illum` needs one illumination model number (0 to 10)".into()));
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    Ok(out)
 }
 
-fn load_obj_unguarded(path: &Path) -> Result<Mesh> {
+/// One `.mtl` file, read through `engine_io` and checked ([`check_mtl`]). A file that does not exist is the
+/// documented warning (the meshes get the default grey): `Ok(Err(OpenFileFailed))`, as `tobj` reports it.
+fn load_mtl(mtl: &Path, obj: &Path) -> Result<tobj::MTLLoadResult> {
+    let text = match engine_io::read_to_string(mtl, engine_io::Limit::MATERIAL_LIBRARY) {
+        Ok(t) => t,
+        Err(engine_io::InputError::NotFound { .. }) => {
+            log::warn!("{}: material library {} not found; default grey", obj.display(), mtl.display());
+            return Ok(Err(tobj::LoadError::OpenFileFailed));
+        }
+        Err(e) => {
+            return Err(SceneError::invalid(mtl, format!("{} (material library of {})", e.message(), obj.display())))
+        }
+    };
+    let bad = |m: String| SceneError::invalid(mtl, format!("{m} (material library of {})", obj.display()));
+    let checked = check_mtl(&text).map_err(|(line, m)| bad(format!("line {line}: {m}")))?;
+    match engine_io::catch_quiet(|| tobj::load_mtl_buf(&mut checked.as_bytes())) {
+        Ok(Ok(m)) => Ok(Ok(m)),
+        Ok(Err(e)) => Err(bad(format!("not a valid material library: {e}"))),
+        Err(_) => Err(bad("not a valid material library (the parser panicked on it)".into())),
+    }
+}
+
+/// Parse an OBJ file read through `engine_io`: relative indices checked first, its `mtllib` files (with
+/// `materials`) read through [`load_mtl`] (tobj's own loader would open any file, `/dev/zero` included), and a
+/// panic inside the `tobj` parser contained quietly as an error naming the file.
+type ObjParse = (Vec<tobj::Model>, std::result::Result<Vec<tobj::Material>, tobj::LoadError>);
+fn parse_obj(path: &Path, materials: bool) -> Result<ObjParse> {
+    let bytes = engine_io::read(path, engine_io::Limit::MESH)?;
+    check_relative_indices(&String::from_utf8_lossy(&bytes))
+        .map_err(|m| SceneError::invalid(path, format!("not a valid OBJ file: {m}")))?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, _materials) =
-        tobj::load_obj(path, &opts).map_err(|e| SceneError::invalid(path, format!("not a valid OBJ file: {e}")))?;
+    let mtl_error = std::cell::RefCell::new(None);
+    let loader = |name: &Path| -> tobj::MTLLoadResult {
+        if !materials || mtl_error.borrow().is_some() {
+            return Err(tobj::LoadError::OpenFileFailed);
+        }
+        let full = path.parent().map_or(name.to_path_buf(), |d| d.join(name));
+        match load_mtl(&full, path) {
+            Ok(m) => m,
+            Err(e) => {
+                *mtl_error.borrow_mut() = Some(e);
+                Err(tobj::LoadError::ReadError)
+            }
+        }
+    };
+    let parsed = engine_io::catch_quiet(|| tobj::load_obj_buf(&mut &bytes[..], &opts, loader));
+    if let Some(e) = mtl_error.take() {
+        return Err(e);
+    }
+    match parsed {
+        Ok(Ok(m)) => Ok(m),
+        Ok(Err(e)) => Err(SceneError::invalid(path, format!("not a valid OBJ file: {e}"))),
+        Err(_) => Err(SceneError::invalid(path, "not a valid OBJ file (the OBJ parser panicked on it)")),
+    }
+}
+
+/// Load every object of an OBJ file as one mesh (its `.mtl` is not read). Malformed files are errors naming the
+/// file ([`parse_obj`]).
+pub fn load_obj(path: &Path) -> Result<Mesh> {
+    let (models, _materials) = parse_obj(path, false)?;
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut indices = Vec::new();
@@ -194,18 +280,15 @@ fn load_obj_unguarded(path: &Path) -> Result<Mesh> {
 /// Load an OBJ file with its `.mtl` materials: one mesh per material (objects sharing a material are merged;
 /// faces with none form one more mesh), each with its [`Material`]: `Kd` → diffuse ρ_d, `Ks` → specular k_s,
 /// `Ns` → the Blinn-Phong exponent s (as written: OBJ's Phong exponent is used as ours; clamped to [1, 1e5]).
-/// Colours are clamped to [0, 1]. A missing or unreadable `.mtl` is a warning (the meshes get the default grey).
+/// Colours are clamped to [0, 1]; a non-finite value (`Kd nan`, `Ks inf`) is an error naming the `.mtl` and its
+/// line ([`check_mtl`]). A missing `.mtl` is a warning (the meshes get the default grey); one that cannot be read
+/// (not a regular file, over its size limit) or does not parse is an error naming it.
 pub fn load_obj_with_materials(path: &Path) -> Result<(Vec<Mesh>, Vec<Material>)> {
-    check_exists(path)?;
-    let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
-    check_relative_indices(&String::from_utf8_lossy(&bytes))
-        .map_err(|m| SceneError::invalid(path, format!("not a valid OBJ file: {m}")))?;
-    drop(bytes);
-    std::panic::catch_unwind(|| load_obj_materials_unguarded(path))
-        .unwrap_or_else(|_| Err(SceneError::invalid(path, "not a valid OBJ file (the OBJ parser panicked on it)")))
+    let (models, materials) = parse_obj(path, true)?;
+    obj_meshes_by_material(path, models, materials)
 }
 
-/// One `.mtl` material on our model.
+/// One `.mtl` material on our model (its values finite: [`check_mtl`]).
 pub fn material_from_mtl(m: &tobj::Material) -> Material {
     let unit = |c: [f32; 3]| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE);
     let mut out = Material::diffuse(m.diffuse.map(unit).unwrap_or(Vec3::splat(0.8)));
@@ -218,10 +301,11 @@ pub fn material_from_mtl(m: &tobj::Material) -> Material {
     out
 }
 
-fn load_obj_materials_unguarded(path: &Path) -> Result<(Vec<Mesh>, Vec<Material>)> {
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, materials) =
-        tobj::load_obj(path, &opts).map_err(|e| SceneError::invalid(path, format!("not a valid OBJ file: {e}")))?;
+fn obj_meshes_by_material(
+    path: &Path,
+    models: Vec<tobj::Model>,
+    materials: std::result::Result<Vec<tobj::Material>, tobj::LoadError>,
+) -> Result<(Vec<Mesh>, Vec<Material>)> {
     let mtl: Vec<(String, Material)> = match materials {
         Ok(m) => m.iter().map(|m| (m.name.clone(), material_from_mtl(m))).collect(),
         Err(e) => {
@@ -281,11 +365,13 @@ fn load_obj_materials_unguarded(path: &Path) -> Result<(Vec<Mesh>, Vec<Material>
 ///
 /// Malformed files are errors naming the file, never a crash: the `gltf` crates panic on some inputs they
 /// fail to validate (out-of-range accessors, `unreachable!`, assertions), so the import runs under
-/// `catch_unwind`; and the node graph is checked to be a forest (glTF 2.0 §3.5.3: no cycles, no node
-/// with two parents) before any mesh is copied.
+/// `engine_io::catch_quiet` (no panic message is printed); and the node graph is checked to be a forest
+/// (glTF 2.0 §3.5.3: no cycles, no node with two parents) before any mesh is copied. The file and its external
+/// buffers are read through `engine_io` (regular files of at most `Limit::MESH`); images are never read (the
+/// renderer uses no textures).
 pub fn load_gltf(path: &Path, material_base: usize) -> Result<GltfScene> {
-    check_exists(path)?;
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_gltf_unguarded(path, material_base)))
+    let bytes = engine_io::read(path, engine_io::Limit::MESH)?;
+    engine_io::catch_quiet(|| load_gltf_unguarded(path, &bytes, material_base))
         .unwrap_or_else(|_| Err(SceneError::invalid(path, "not a valid glTF file (the glTF decoder panicked on it)")))
 }
 
@@ -352,57 +438,72 @@ fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
     Ok(())
 }
 
-/// The largest external buffer file a glTF may name (the engine keeps every mesh in memory twice at most).
-const MAX_GLTF_BUFFER_BYTES: u64 = 4 << 30;
-
-/// External buffers (`"uri": "file.bin"`) must be regular files no larger than [`MAX_GLTF_BUFFER_BYTES`] and at
-/// least as long as the buffer's `byteLength`: `gltf::import_buffers` reads the named file whole, so a `uri` of
-/// `/dev/zero` (or a FIFO) would be read without end. Data URIs are bounded by the file already read.
-fn check_external_buffers(doc: &gltf::Document, dir: Option<&Path>) -> std::result::Result<(), String> {
+/// The buffers of a glTF: the GLB's binary chunk, data URIs (decoded by the `gltf` crate, which reads no file for
+/// them), and external files read through `engine_io` (`gltf::import_buffers` would read any file whole,
+/// `/dev/zero` and FIFOs included, and panics on a relative URI that percent-decodes to invalid UTF-8). Each
+/// buffer must hold at least its `byteLength`.
+fn read_buffers(
+    doc: &gltf::Document,
+    dir: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+) -> std::result::Result<Vec<gltf::buffer::Data>, String> {
+    let mut out = Vec::new();
     for b in doc.buffers() {
-        let gltf::buffer::Source::Uri(uri) = b.source() else { continue };
-        if uri.starts_with("data:") {
-            continue;
-        }
-        // glTF URIs are relative references (§3.2: percent-encoded); the common unencoded case is checked here,
-        // an encoded name the decoder resolves differently is still read by it only if it is a regular file.
-        let file = std::path::Path::new(uri);
-        let full = if file.is_absolute() { file.to_path_buf() } else { dir.unwrap_or(Path::new(".")).join(file) };
-        let meta = match std::fs::metadata(&full) {
-            Ok(m) => m,
-            Err(_) => continue, // missing: the decoder reports it with the buffer's name
+        let external = match b.source() {
+            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
+                let file = match uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+                    Some(f) => std::path::PathBuf::from(f),
+                    None if uri.contains(':') => {
+                        return Err(format!("buffer {}: unsupported URI scheme in '{}'", b.index(), excerpt(uri)))
+                    }
+                    // glTF 2.0 §3.2: relative URIs are percent-encoded.
+                    None => match urlencoding::decode(uri) {
+                        Ok(decoded) => std::path::PathBuf::from(decoded.into_owned()),
+                        Err(_) => {
+                            return Err(format!(
+                                "buffer {}: URI '{}' is not UTF-8 once decoded",
+                                b.index(),
+                                excerpt(uri)
+                            ))
+                        }
+                    },
+                };
+                let full = if file.is_absolute() { file } else { dir.unwrap_or(Path::new(".")).join(file) };
+                let mut bytes =
+                    engine_io::read(&full, engine_io::Limit::MESH).map_err(|e| format!("buffer {}: {e}", b.index()))?;
+                if bytes.len() < b.length() {
+                    return Err(format!(
+                        "buffer {}: {}: has {} bytes; its byteLength is {}",
+                        b.index(),
+                        full.display(),
+                        bytes.len(),
+                        b.length()
+                    ));
+                }
+                bytes.resize(bytes.len().next_multiple_of(4), 0);
+                Some(gltf::buffer::Data(bytes))
+            }
+            _ => None,
         };
-        if !meta.is_file() {
-            return Err(format!("buffer {} names '{uri}', which is not a regular file", b.index()));
+        let data = match external {
+            Some(d) => d,
+            None => gltf::buffer::Data::from_source_and_blob(b.source(), None, &mut blob)
+                .map_err(|e| format!("buffer {}: {e}", b.index()))?,
+        };
+        if data.len() < b.length() {
+            return Err(format!("buffer {} has {} bytes; its byteLength is {}", b.index(), data.len(), b.length()));
         }
-        if meta.len() > MAX_GLTF_BUFFER_BYTES {
-            return Err(format!(
-                "buffer {} file '{uri}' is {} bytes (at most {MAX_GLTF_BUFFER_BYTES})",
-                b.index(),
-                meta.len()
-            ));
-        }
-        if meta.len() < b.length() as u64 {
-            return Err(format!(
-                "buffer {} file '{uri}' has {} bytes; its byteLength is {}",
-                b.index(),
-                meta.len(),
-                b.length()
-            ));
-        }
+        out.push(data);
     }
-    Ok(())
+    Ok(out)
 }
 
-fn load_gltf_unguarded(path: &Path, material_base: usize) -> Result<GltfScene> {
+fn load_gltf_unguarded(path: &Path, bytes: &[u8], material_base: usize) -> Result<GltfScene> {
     let invalid = |e: String| SceneError::invalid(path, format!("not a valid glTF file: {e}"));
-    let bytes = std::fs::read(path).map_err(|e| SceneError::invalid(path, format!("cannot read: {e}")))?;
-    check_glb_header(&bytes).map_err(invalid)?;
-    let gltf::Gltf { document: doc, blob } = super::gltf_import::parse(&bytes).map_err(invalid)?;
-    drop(bytes);
+    check_glb_header(bytes).map_err(invalid)?;
+    let gltf::Gltf { document: doc, blob } = super::gltf_import::parse(bytes).map_err(invalid)?;
     // Buffers only: the renderer reads no textures, so images (external files too) are not loaded.
-    check_external_buffers(&doc, path.parent()).map_err(invalid)?;
-    let buffers = gltf::import_buffers(&doc, path.parent(), blob).map_err(|e| invalid(e.to_string()))?;
+    let buffers = read_buffers(&doc, path.parent(), blob).map_err(invalid)?;
     check_node_forest(&doc).map_err(|m| SceneError::invalid(path, format!("not a valid glTF file: {m}")))?;
     super::gltf_import::read(path, &doc, &buffers, material_base)
 }

@@ -27,12 +27,33 @@ pub enum SceneError {
 }
 
 impl SceneError {
+    /// The message is [`engine_io::shorten`]ed: it may quote the file's content.
     pub(crate) fn invalid(path: &std::path::Path, message: impl Into<String>) -> Self {
-        Self::Invalid { path: path.to_path_buf(), message: message.into() }
+        Self::Invalid { path: path.to_path_buf(), message: engine_io::shorten(&message.into()) }
+    }
+}
+
+impl From<engine_io::InputError> for SceneError {
+    fn from(e: engine_io::InputError) -> Self {
+        match e {
+            engine_io::InputError::NotFound { path } => SceneError::NotFound { path },
+            engine_io::InputError::Refused { path, message } => SceneError::Invalid { path, message },
+        }
     }
 }
 
 pub type Result<T> = std::result::Result<T, SceneError>;
+
+/// The one rule for material values read from files (`.mtl`, glTF, scene files): every value must be a finite
+/// number. NaN and infinities (also a finite literal beyond f32, such as 1e39) are refused with an error naming
+/// the file, the material value and the line or key where the format has them; they are never replaced, since no
+/// default would be what the file meant. Finite values out of range are clamped as each loader documents.
+pub fn check_material_values(what: &str, values: &[f32]) -> std::result::Result<(), String> {
+    match values.iter().any(|v| !v.is_finite()) {
+        true => Err(format!("{what} is not finite ({values:?} as f32): material values must be finite numbers")),
+        false => Ok(()),
+    }
+}
 
 /// Our material model: Lambertian diffuse plus one specular term `f = ρ_d/π + f_s`
 /// (the ISG paper's k_d + k_s s(ω_i, ω_o) form), f_s chosen by [`Brdf`]:
@@ -150,7 +171,12 @@ impl Material {
         let (kind, pairs) = crate::options::split_spec(spec).map_err(|e| format!("--brdf {e}"))?;
         let Some((_, _, schema)) = BRDF_MODELS.iter().find(|(name, _, _)| *name == kind) else {
             let names: Vec<&str> = BRDF_MODELS.iter().map(|(n, _, _)| *n).collect();
-            return Err(format!("--brdf '{spec}': unknown model '{kind}' ({})", names.join(", ")));
+            return Err(format!(
+                "--brdf '{}': unknown model '{}' ({})",
+                engine_io::excerpt(spec),
+                engine_io::excerpt(kind),
+                names.join(", ")
+            ));
         };
         let o = crate::options::parse(&format!("--brdf '{kind}'"), schema, &pairs).map_err(|e| e.0)?;
         let mut m = *self;

@@ -259,7 +259,7 @@ fn load_spheres(p: &Path) -> Result<(), String> {
 /// The scene description parser (`--scene FILE.toml`): TOML syntax and the strict schema. Building the scene
 /// (models, environment, sphere fits) reads other files through the loaders fuzzed above.
 fn parse_scene(p: &Path) -> Result<(), String> {
-    let text = std::fs::read_to_string(p).map_err(|e| e.to_string())?;
+    let text = engine::io::read_to_string(p, engine::io::Limit::SCENE).map_err(|e| e.to_string())?;
     demos::scenes::user::parse_scene_file(&text).map(|_| ())
 }
 
@@ -335,19 +335,25 @@ pub fn execute(target: &Target, path: &Path) -> Outcome {
     let base = LIVE.load(Ordering::Relaxed);
     PEAK.store(base, Ordering::Relaxed);
     IN_EXEC.with(|f| f.set(true));
+    // The loaders contain their parsers' panics with engine::io::catch_quiet, which keeps them from every hook
+    // (this one included) and counts them.
+    let quietly_contained = engine::io::contained_panics();
     let t0 = Instant::now();
     let r = std::panic::catch_unwind(|| (target.run)(path));
     let elapsed = t0.elapsed();
     IN_EXEC.with(|f| f.set(false));
+    let quiet = (engine::io::contained_panics() - quietly_contained) as usize;
     let peak_bytes = PEAK.load(Ordering::Relaxed).saturating_sub(base);
     let panics = PANICS.with(|p| std::mem::take(&mut *p.borrow_mut()));
     match r {
-        Ok(res) => Outcome { loaded: res.is_ok(), elapsed, peak_bytes, contained_panics: panics.len(), escaped: None },
+        Ok(res) => {
+            Outcome { loaded: res.is_ok(), elapsed, peak_bytes, contained_panics: panics.len() + quiet, escaped: None }
+        }
         Err(_) => Outcome {
             loaded: false,
             elapsed,
             peak_bytes,
-            contained_panics: panics.len().saturating_sub(1),
+            contained_panics: panics.len().saturating_sub(1) + quiet,
             escaped: Some(panics.last().cloned().unwrap_or_else(|| "panic".into())),
         },
     }

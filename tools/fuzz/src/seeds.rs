@@ -154,3 +154,44 @@ pub fn scene() -> Vec<Vec<u8>> {
 pub fn spheres() -> Vec<Vec<u8>> {
     read(assets().join("meshes/bunny.spheres.json")).into_iter().collect()
 }
+
+/// Material libraries (`.mtl`): every statement the OBJ loader reads (colours of three numbers and of one, the
+/// exponent, `d`, `Ni`, `illum`), two materials, comments and texture names (which the loader ignores).
+pub fn mtl() -> Vec<Vec<u8>> {
+    vec![
+        b"# two materials\nnewmtl a\nKa 0 0 0\nKd 0.8 0.5 0.4\nKs 0.2 0.2 0.2\nNs 64\nd 1\nNi 1.5\nillum 2\n\
+          newmtl b\nKd 0.3\nKs 0.04 0.04 0.04\nNs 1000\nmap_Kd b.png\n"
+            .to_vec(),
+        b"newmtl a\nKd 1 1 1 # white\nKe 0 0 0\n".to_vec(),
+    ]
+}
+
+/// Material-map PNGs: 8-bit grey, RGB and RGBA, a palette image, and 16-bit grey (4×4 each).
+pub fn png() -> Vec<Vec<u8>> {
+    let mut out = Vec::new();
+    let kinds = [
+        (png::ColorType::Grayscale, png::BitDepth::Eight, 1usize),
+        (png::ColorType::Rgb, png::BitDepth::Eight, 3),
+        (png::ColorType::Rgba, png::BitDepth::Eight, 4),
+        (png::ColorType::Indexed, png::BitDepth::Eight, 1),
+        (png::ColorType::Grayscale, png::BitDepth::Sixteen, 2),
+    ];
+    for (color, depth, bytes_per_pixel) in kinds {
+        let mut bytes = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut bytes, 4, 4);
+            enc.set_color(color);
+            enc.set_depth(depth);
+            if color == png::ColorType::Indexed {
+                enc.set_palette((0..16u8).flat_map(|i| [i * 16, 255 - i * 16, 128]).collect::<Vec<u8>>());
+            }
+            let data: Vec<u8> = (0..16 * bytes_per_pixel).map(|i| (i * 37 % 256) as u8).collect();
+            let data = if color == png::ColorType::Indexed { data.iter().map(|b| b % 16).collect() } else { data };
+            if let Ok(mut w) = enc.write_header() {
+                let _ = w.write_image_data(&data);
+            }
+        }
+        out.push(bytes);
+    }
+    out
+}

@@ -66,3 +66,23 @@ fn a_short_run_of_every_target_finds_nothing() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// The loaders contain parser panics quietly (engine::io::catch_quiet, which no panic hook sees): the driver
+/// still counts them, through engine::io's counter.
+#[test]
+fn quietly_contained_panics_are_counted() {
+    let t = engine_fuzz::target("gltf").expect("gltf target");
+    let (path, bytes) = corpus(t)
+        .unwrap()
+        .into_iter()
+        .find(|(p, _)| p.ends_with("accessor-index-out-of-range.gltf"))
+        .expect("the corpus input the gltf crate panics on");
+    let dir = work_dir("quiet");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("input.gltf");
+    std::fs::write(&p, bytes).unwrap();
+    let o = execute(t, &p);
+    assert!(o.escaped.is_none() && !o.loaded, "{}: {o:?}", path.display());
+    assert!(o.contained_panics >= 1, "{}: the contained panic was not counted: {o:?}", path.display());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

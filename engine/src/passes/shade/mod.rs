@@ -103,16 +103,26 @@ pub fn wants_env_lights(options: &Options) -> bool {
 pub fn technique_entry(name: &str) -> Result<&'static TechniqueEntry> {
     TECHNIQUES.iter().find(|t| t.name == name).ok_or_else(|| {
         let names: Vec<&str> = TECHNIQUES.iter().map(|t| t.name).collect();
-        GpuError::Other(format!("unknown technique '{name}' (available: {})", names.join(", ")))
+        GpuError::Other(format!("unknown technique '{}' (available: {})", engine_io::excerpt(name), names.join(", ")))
     })
 }
 
+/// Checks that tie several keys of one technique together (each key alone is checked by its schema), by technique
+/// name: a table beside the registry, so that no entry has to change for a technique to have none.
+const OPTION_CHECKS: &[(&str, OptionCheck)] = &[("shexp", shexp::check_options)];
+
+/// A check of several keys of one technique's parsed options: `Err` says what contradicts what.
+type OptionCheck = fn(&Options) -> std::result::Result<(), String>;
+
 /// Parse a technique spec `name[:key=value,...]` against the registry (no GPU needed): unknown names,
-/// unknown keys and out-of-range values are errors naming them.
+/// unknown keys, out-of-range values and contradictory keys are errors naming them.
 pub fn parse_technique(spec: &str) -> Result<(&'static TechniqueEntry, Options)> {
     let (name, pairs) = options::split_spec(spec).map_err(|e| GpuError::Other(format!("technique {e}")))?;
     let entry = technique_entry(name)?;
     let opts = options::parse(entry.name, entry.options, &pairs).map_err(|e| GpuError::Other(e.0))?;
+    for (_, check) in OPTION_CHECKS.iter().filter(|(n, _)| *n == entry.name) {
+        check(&opts).map_err(|e| GpuError::Other(format!("{}: {e}", entry.name)))?;
+    }
     Ok((entry, opts))
 }
 

@@ -253,6 +253,23 @@ impl Default for ShexpOptions {
     }
 }
 
+/// The keys' joint rules: `theta_min` drops blockers subtending less than it, `theta_max` takes nodes subtending
+/// less than it whole. With θ_min ≥ θ_max > 0 every node small enough to be taken whole is dropped instead (no
+/// blocker is left below θ_min); θ_min = 90° drops every blocker. Both were accepted and rendered no shadow.
+pub fn check_options(o: &Options) -> std::result::Result<(), String> {
+    let (min, max) = (o.float("theta_min"), o.float("theta_max"));
+    if min >= 90.0 {
+        return Err(format!("theta_min={min} drops every blocker (it must be below 90)"));
+    }
+    if max > 0.0 && min >= max {
+        return Err(format!(
+            "theta_min={min} is not below theta_max={max}: every node the θ_max cut takes whole would be dropped \
+             (theta_max=0 cuts to the leaves, where any theta_min below 90 applies)"
+        ));
+    }
+    Ok(())
+}
+
 impl ShexpOptions {
     pub fn from_options(o: &Options) -> Self {
         Self {
