@@ -169,8 +169,8 @@ fn spread(texels: &[Texel]) -> ([f64; 3], f64, f64) {
     let mut sum = [0.0; 3];
     let (mut w, mut extent) = (0.0, 0.0);
     for t in texels {
-        for k in 0..3 {
-            sum[k] += t.weight * t.dir[k];
+        for (s, d) in sum.iter_mut().zip(t.dir) {
+            *s += t.weight * d;
         }
         w += t.weight;
         extent += t.weight * t.solid_angle / (4.0 * PI);
@@ -236,7 +236,7 @@ fn normalize(a: [f64; 3]) -> [f64; 3] {
 /// no factor divides both sides).
 fn detection_factor(map: &LatLongMap) -> usize {
     (1..=map.width)
-        .find(|&f| map.width / f <= DETECTION_WIDTH && map.width % f == 0 && map.height % f == 0)
+        .find(|&f| map.width / f <= DETECTION_WIDTH && map.width.is_multiple_of(f) && map.height.is_multiple_of(f))
         .unwrap_or(1)
 }
 
@@ -389,7 +389,7 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
         for t in piece {
             let (lc, lr) = (t.index % w, t.index / w);
             for r in lr * f..(lr + 1) * f {
-                for c in lc * f..(lc + 1) * f {
+                for (c, &(cp, sp)) in cols.iter().enumerate().take((lc + 1) * f).skip(lc * f) {
                     let index = r * map.width + c;
                     let orig = map.texels[index].map(|x| if x.is_finite() { x.max(0.0) as f64 } else { 0.0 });
                     let kept = [0, 1, 2].map(|k| orig[k].min(fill[k]) as f32);
@@ -398,11 +398,11 @@ pub fn decompose(map: &LatLongMap, params: &EnvLightParams) -> EnvDecomposition 
                     let excess = [0, 1, 2].map(|k| (orig[k] - kept[k] as f64).max(0.0));
                     let sa = full_sa[r];
                     let weight = luminance(excess) * sa;
-                    let ((st, ct), (cp, sp)) = (rows[r], cols[c]);
+                    let (st, ct) = rows[r];
                     let dir = [st * cp, ct, st * sp];
-                    for k in 0..3 {
-                        power[k] += excess[k] * sa;
-                        sum[k] += weight * dir[k];
+                    for (k, (p, s)) in power.iter_mut().zip(sum.iter_mut()).enumerate() {
+                        *p += excess[k] * sa;
+                        *s += weight * dir[k];
                     }
                     lw += weight;
                     extent += weight * sa / (4.0 * PI);
