@@ -409,7 +409,6 @@ fn render_on(
     eprintln!("preparing scene '{label}' with technique '{}' at {}x{}...", args.technique, width, height);
     let t0 = std::time::Instant::now();
     let mut renderer = Renderer::new(gpu, scene, settings)?;
-    eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
     if let Some(split) = renderer.scene.env_split_if_made() {
         let d = &split.decomposition;
         eprintln!(
@@ -422,6 +421,7 @@ fn render_on(
             d.note.as_ref().map(|n| format!("; {n}")).unwrap_or_default()
         );
     }
+    eprintln!("prepared in {:.2} s", t0.elapsed().as_secs_f64());
     let result = drive(gpu, &mut renderer, args, scene, animation, event_loop);
     renderer.destroy(gpu);
     result
