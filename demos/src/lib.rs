@@ -11,6 +11,7 @@ pub mod export;
 pub mod gltf_writer;
 pub mod measure;
 pub mod report;
+pub mod results_page;
 pub mod scenes;
 pub mod soak;
 pub mod viewer;

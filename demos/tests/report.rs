@@ -28,7 +28,7 @@ fn tiny_sweep_runs_end_to_end() {
     let _ = std::fs::remove_dir_all(&out);
     // The validation layer required, leaks and validation errors fail the test (even without shutdown).
     let gpu = engine::gpu::testing::test_gpu().expect("gpu");
-    let res = report::run(&gpu, &sweep, &out);
+    let res = report::run(&gpu, &sweep, &out, "cargo xtask report --tiny");
     gpu.shutdown().expect("clean teardown");
     let res = res.expect("tiny sweep");
 
