@@ -1,6 +1,6 @@
 //! `demo` options that mean nothing or cannot be met (issue 14, defects 5–8): each is honoured exactly or
 //! refused with a message naming it (exit status ≠ 0, never a signal or a panic), before any GPU work where the
-//! arguments alone decide. The README's "bad input" table lists the same cases.
+//! arguments alone decide. docs/bad-input.md's table lists the same cases.
 //!
 //! - 5: `ENGINE_DEVICE` chooses the adapter when `--device` is not given; `--device` wins over it.
 //! - 6: `--spp` outside the reference, `--spp 0`, beyond the maximum, `--frames 0`, `--capture 0`, `--exposure`

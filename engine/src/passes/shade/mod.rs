@@ -5,7 +5,7 @@
 //!
 //! **Adding a technique** = one entry in [`TECHNIQUES`] (its `mod` line and its [`TechniqueEntry`]),
 //! one Rust file here and one shader folder `shaders-glsl/shade/<name>/` with `pixel.comp` and
-//! `vertex.comp`. `--help`, the viewer's technique cycle, the report sweep's validation, the README's
+//! `vertex.comp`. `--help`, the viewer's technique cycle, the report sweep's validation, the docs'
 //! option tables and the parameterized tests (tests/tests/techniques.rs) all read the registry.
 
 pub mod isg;
@@ -25,7 +25,7 @@ pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, lobes::ENTRY, none::ENT
 /// One registered technique.
 pub struct TechniqueEntry {
     pub name: &'static str,
-    /// One line for `--help` and the README.
+    /// One line for `--help` and the docs.
     pub summary: &'static str,
     /// Its options (`--technique name:key=value,...`).
     pub options: &'static [OptionSpec],

@@ -63,7 +63,7 @@ impl Default for IsgOptions {
 /// Coordinate-descent rounds refining the greedy environment fit (engine-math `refine_envmap_sgs`).
 pub const REFINE_ROUNDS: usize = 6;
 
-/// The schema of `isg`'s options (also `--help`, the viewer, the report sweep and the README).
+/// The schema of `isg`'s options (also `--help`, the viewer, the report sweep and docs/techniques/isg.md).
 pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         key: "diffuse",
