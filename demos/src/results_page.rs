@@ -109,6 +109,12 @@ fn scenes(rows: &[Row]) -> Vec<&str> {
     out
 }
 
+/// One cell of the summary table: relative RMSE % net of noise vs the sphere proxy / vs the triangles, and the
+/// shade ms (`–` where a value does not exist: a scene without blocker spheres has no sphere-proxy reference).
+pub fn summary_cell(vs_spheres: f64, vs_triangles: f64, shade_ms: f64) -> String {
+    format!("{} / {} % · {} ms", pct(vs_spheres), pct(vs_triangles), ms(shade_ms))
+}
+
 /// The summary table: per scene (rows) and summary technique (columns), per pixel: relative RMSE % net of the
 /// reference's noise against the sphere proxy / against the triangles, and the shade ms.
 fn summary_block(stamp: &Stamp, site: &Site, rows: &[Row]) -> Result<String> {
@@ -127,9 +133,12 @@ fn summary_block(stamp: &Stamp, site: &Site, rows: &[Row]) -> Result<String> {
             let Some(r) = rows.iter().find(|r| r.scene == scene && r.shading == "pixel" && &r.technique == t) else {
                 bail!("summary technique '{t}' was not measured per pixel on '{scene}': add it to the sweep");
             };
-            let sph = r.vs_spheres.map_or("–".into(), |e| pct(e.debiased));
-            let tri = r.vs_triangles.map_or("–".into(), |e| pct(e.debiased));
-            let _ = write!(s, " {sph} / {tri} % · {} ms |", ms(r.shade_ms));
+            let cell = summary_cell(
+                r.vs_spheres.map_or(f64::NAN, |e| e.debiased),
+                r.vs_triangles.map_or(f64::NAN, |e| e.debiased),
+                r.shade_ms,
+            );
+            let _ = write!(s, " {cell} |");
         }
         let _ = writeln!(s);
     }
