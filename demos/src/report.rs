@@ -818,27 +818,42 @@ fn region_rows(
 }
 
 pub fn write_regions_csv(path: &Path, rows: &[RegionRow]) -> Result<()> {
-    let mut s = format!("{REGIONS_HEADER}\n");
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},\"{}\",\"{}\",{},{},{},{},{},{},{},{},{}",
-            r.scene,
-            r.shading,
-            r.image.replace('"', "\"\""),
-            r.region.replace('"', "\"\""),
-            r.lighting,
-            r.against,
-            num(r.rmse),
-            num(r.debiased),
-            num(r.noise),
-            num(r.of_whole),
-            num(r.of_whole_debiased),
-            num(r.error_share),
-            num(r.radiance_share)
-        );
-    }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    write_records(
+        path,
+        REGIONS_HEADER,
+        rows.iter().map(|r| {
+            vec![
+                r.scene.clone(),
+                r.shading.clone(),
+                r.image.clone(),
+                r.region.clone(),
+                r.lighting.to_string(),
+                r.against.to_string(),
+                num(r.rmse),
+                num(r.debiased),
+                num(r.noise),
+                num(r.of_whole),
+                num(r.of_whole_debiased),
+                num(r.error_share),
+                num(r.radiance_share),
+            ]
+        }),
+    )
+}
+
+/// A CSV file of `header` and `records` (the `csv` crate quotes the fields that need it: technique specs hold
+/// commas, `isg:patches=8,K=4`).
+fn write_records(path: &Path, header: &str, records: impl Iterator<Item = Vec<String>>) -> Result<()> {
+    let write = || -> Result<()> {
+        let mut w = csv::Writer::from_path(path)?;
+        w.write_record(header.split(','))?;
+        for r in records {
+            w.write_record(&r)?;
+        }
+        w.flush()?;
+        Ok(())
+    };
+    write().with_context(|| format!("writing {}", path.display()))
 }
 
 fn num(v: f64) -> String {
@@ -849,33 +864,29 @@ fn num(v: f64) -> String {
     }
 }
 
-fn errs(e: &Option<Errors>) -> String {
+fn errs(e: &Option<Errors>) -> [String; 4] {
     match e {
-        Some(e) => format!("{},{},{},{}", num(e.rmse), num(e.debiased), num(e.max_abs), num(e.flip)),
-        None => ",,,".into(),
+        Some(e) => [num(e.rmse), num(e.debiased), num(e.max_abs), num(e.flip)],
+        None => Default::default(),
     }
 }
 
 pub fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
-    let mut s = format!("{CSV_HEADER}\n");
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{}",
-            r.scene,
-            r.shading,
-            // Specs hold commas (isg:patches=8,K=4): quote.
-            format_args!("\"{}\"", r.technique.replace('"', "\"\"")),
-            num(r.shade_ms),
-            num(r.frame_ms),
-            errs(&r.vs_triangles),
-            errs(&r.vs_spheres),
-            r.vs_triangles.map_or(String::new(), |e| num(e.noise)),
-            r.vs_spheres.map_or(String::new(), |e| num(e.noise)),
-            r.representation.map_or(",".into(), |e| format!("{},{}", num(e.rmse), num(e.debiased)))
-        );
-    }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    write_records(
+        path,
+        CSV_HEADER,
+        rows.iter().map(|r| {
+            let mut rec =
+                vec![r.scene.clone(), r.shading.clone(), r.technique.clone(), num(r.shade_ms), num(r.frame_ms)];
+            rec.extend(errs(&r.vs_triangles));
+            rec.extend(errs(&r.vs_spheres));
+            rec.push(r.vs_triangles.map_or(String::new(), |e| num(e.noise)));
+            rec.push(r.vs_spheres.map_or(String::new(), |e| num(e.noise)));
+            rec.push(r.representation.map_or(String::new(), |e| num(e.rmse)));
+            rec.push(r.representation.map_or(String::new(), |e| num(e.debiased)));
+            rec
+        }),
+    )
 }
 
 /// Technique family of a spec: the spec without its swept sizes `patches` and `K`
