@@ -25,6 +25,13 @@ pub fn assets_dir() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets"))
 }
 
+/// Install the logger of a binary: `RUST_LOG` as `env_logger` reads it, warnings and errors when it is unset
+/// (the engine reports dropped triangles, recomputed normals, missing materials and the validation-layer
+/// fallback as warnings). Every binary of the workspace calls this or its one line first.
+pub fn init_logging() {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+}
+
 /// The binaries' `main`: print the error with its causes as `error: …` and exit with status 1.
 pub fn exit_on_error(result: anyhow::Result<()>) {
     if let Err(e) = result {

@@ -145,6 +145,7 @@ fn parse_name(s: &str) -> Result<String, String> {
 }
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

@@ -7,6 +7,7 @@
 use engine::passes::shade::lobes::fit;
 
 fn main() {
+    demos::init_logging();
     if let Err(e) = run() {
         eprintln!("error: {e}");
         std::process::exit(1);

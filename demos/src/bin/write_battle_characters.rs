@@ -8,6 +8,7 @@ use demos::gltf_writer::Container;
 use std::path::PathBuf;
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

@@ -7,6 +7,7 @@ use demos::gltf_writer::{example_arm, Container};
 use std::path::PathBuf;
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

@@ -11,6 +11,8 @@ const USAGE: &str =
     "usage: fuzz TARGET|all [--runs N (default 1000000)] [--seconds S] [--seed K] [--dir D (default out/fuzz)]";
 
 fn main() {
+    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.is_empty() || args.iter().any(|a| a == "--help" || a == "-h") {
         let names: Vec<&str> = TARGETS.iter().map(|t| t.name).collect();
