@@ -358,3 +358,55 @@ impl ComposePass {
         gpu.destroy_compute_pipeline(self.pipeline);
     }
 }
+
+/// docs/technique-template/template.rs, compiled with the engine's tests against this registry's types, so that
+/// the template cannot rot (its shaders are compiled by the test below).
+#[cfg(test)]
+#[path = "../../../../docs/technique-template/template.rs"]
+mod template;
+
+#[cfg(test)]
+mod template_tests {
+    use super::template;
+    use crate::gpu::{ShaderCompiler, ShaderStage};
+    use std::path::{Path, PathBuf};
+
+    fn copy_dir(from: &Path, to: &Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for e in std::fs::read_dir(from).unwrap().flatten() {
+            let target = to.join(e.file_name());
+            if e.path().is_dir() {
+                copy_dir(&e.path(), &target);
+            } else {
+                std::fs::copy(e.path(), &target).unwrap();
+            }
+        }
+    }
+
+    /// The template's entry is a valid registry entry: its options parse at their defaults, under its name.
+    #[test]
+    fn template_entry_parses_its_defaults() {
+        assert_eq!(template::ENTRY.name, "template");
+        let o = crate::options::parse(template::ENTRY.name, template::ENTRY.options, &[]).expect("defaults");
+        assert_eq!(o.float("gain"), 1.0);
+        assert!(crate::options::parse("template", template::ENTRY.options, &[("gain".into(), "11".into())]).is_err());
+    }
+
+    /// The template's shaders compile (with shaderc, warnings as errors) when copied where its README says,
+    /// `shaders-glsl/shade/template/`, next to the real shared GLSL they include.
+    #[test]
+    fn template_shaders_compile_in_place() {
+        let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+        let tmp = std::env::temp_dir().join(format!("technique-template-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&tmp);
+        let root = tmp.join("shaders-glsl");
+        copy_dir(&repo.join("shaders-glsl"), &root);
+        copy_dir(&repo.join("docs/technique-template/shader"), &root.join("shade/template"));
+        let compiler = ShaderCompiler::new(root).expect("shaderc");
+        for target in ["pixel.comp", "vertex.comp"] {
+            let rel = format!("shade/template/{target}");
+            compiler.compile(&rel, ShaderStage::Compute, &[]).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+}
