@@ -516,7 +516,7 @@ pub fn lit_by(scene: &Scene, lighting: Lighting) -> Scene {
 }
 
 /// `scene` with no blockers at all (spheres, thin shells and every other kind; skins and bones kept): what is
-/// left of a technique's error against the unoccluded reference is its representation error (DESIGN.md §4).
+/// left of a technique's error against the unoccluded reference is its representation error (docs/design.md §4).
 pub fn without_blockers(scene: &Scene) -> Scene {
     let mut s = scene.clone();
     s.blockers = engine::scene::SceneBlockers {

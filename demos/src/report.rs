@@ -1,7 +1,7 @@
 //! The speed-against-error report (`cargo xtask report`): a sweep of scenes × technique specs × shading rates,
 //! defined in one config file (tools/report/sweep.json), each measured for GPU time (median of ≥ 5 frames,
 //! timestamp queries) and error against the converged Monte Carlo reference; plus the error decomposition of
-//! DESIGN.md §4 (SHEXP Fig. 7) on every scene with blocker spheres: proxy error (sphere-proxy reference against
+//! docs/design.md §4 (SHEXP Fig. 7) on every scene with blocker spheres: proxy error (sphere-proxy reference against
 //! the triangle reference), technique error (technique against the sphere-proxy reference) and representation
 //! error (technique on the scene without blockers against the unoccluded reference); and the error split by
 //! region (each object's pixels, exactly from the G-buffer) and by lighting (the environment's upper and lower
@@ -181,7 +181,7 @@ pub struct Row {
     pub frame_ms: f64,
     pub vs_triangles: Option<Errors>,
     pub vs_spheres: Option<Errors>,
-    /// Representation error (DESIGN.md §4): the technique on the scene without blockers against the unoccluded
+    /// Representation error (docs/design.md §4): the technique on the scene without blockers against the unoccluded
     /// reference (scenes with blocker spheres only).
     pub representation: Option<Errors>,
 }
@@ -549,7 +549,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path, command: &str) -> Result<Result
         let between =
             |a: &ReferenceImage, b: &ReferenceImage| measure::errors_of(&a.hdr, Some(&a.halves), &a.ldr, b, w, h);
 
-        // Representation error (DESIGN.md §4): every technique on the scene without blockers against the
+        // Representation error (docs/design.md §4): every technique on the scene without blockers against the
         // unoccluded reference; what is left is the technique's fit of the lighting and BRDF.
         let mut representation: Vec<Option<Errors>> = vec![None; measured.len()];
         if has_spheres && sweep.representation {
@@ -949,7 +949,7 @@ fn pareto(title: &str, rows: &[&Row], against: Against) -> plot::Plot {
     p
 }
 
-/// The error decomposition of DESIGN.md §4 against cost: per technique and shading, the total error (vs the
+/// The error decomposition of docs/design.md §4 against cost: per technique and shading, the total error (vs the
 /// triangle reference), the technique error (vs the sphere-proxy reference) and the representation error (no
 /// blockers vs the unoccluded reference), all minus noise; the proxy error as a dashed horizontal line.
 fn decomposition_plot(title: &str, rows: &[&Row]) -> Option<plot::Plot> {
@@ -1108,7 +1108,7 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
                 s,
                 "Proxy error = the sphere-proxy reference against the triangle reference: **{:.2} %** relative RMSE \
                  ({:.2} % minus the noise of their difference, which is {:.2} %; FLIP {:.4}). Technique error = \
-                 technique against the sphere-proxy reference. Representation error (DESIGN.md §4) = the technique \
+                 technique against the sphere-proxy reference. Representation error (docs/design.md §4) = the technique \
                  on the scene without blockers against the unoccluded reference (its fit of lighting and BRDF). \
                  Each as relative RMSE % / minus noise.\n",
                 p.rmse, p.debiased, p.noise, p.flip

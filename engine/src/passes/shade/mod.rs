@@ -1,4 +1,4 @@
-//! Shading passes behind the technique interface (DESIGN.md §2): every technique reads a named set of
+//! Shading passes behind the technique interface (docs/design.md §2): every technique reads a named set of
 //! shared scene resources ([`ShadeInputs`]: frame, materials, environment, and the lights, blockers,
 //! thin shells or geometry it names in [`Reads`]) and writes one radiance target, per pixel or per
 //! vertex, from the same GLSL `shade_point`.
