@@ -236,6 +236,10 @@ fn bad_options_name_the_key() {
         }
         parse_technique(entry.name).expect("no options");
     }
+    // An unknown technique is an option error (it was a GPU error, `GpuError::Other`), and stays one when it
+    // reaches a GPU-side call.
+    let typed: engine::options::OptionError = parse_technique("no-such-technique").err().expect("unknown name");
+    assert!(matches!(engine::gpu::GpuError::from(typed), engine::gpu::GpuError::Option(_)));
     let e = parse_technique("no-such-technique").err().expect("unknown name").to_string();
     for entry in TECHNIQUES {
         assert!(e.contains(entry.name), "the error lists '{}': {e}", entry.name);

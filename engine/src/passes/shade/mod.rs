@@ -15,7 +15,7 @@ pub mod reference;
 pub mod shexp;
 
 use crate::gpu::{Binding, Buffer, ComputePipeline, Gpu, GpuError, Image, Recorder, Result};
-use crate::options::{self, OptionSpec, Options};
+use crate::options::{self, OptionError, OptionSpec, Options};
 use crate::passes::gbuffer::GBuffer;
 use crate::resources::{BlockerResources, EnvironmentResources, Geometry, GpuScene, LightResources, ThinResources};
 
@@ -77,26 +77,26 @@ impl TechniqueEntry {
     }
 }
 
-/// The registry entry of `name`.
-pub fn technique_entry(name: &str) -> Result<&'static TechniqueEntry> {
+/// The registry entry of `name` (an unknown name is an option error listing the registered ones).
+pub fn technique_entry(name: &str) -> std::result::Result<&'static TechniqueEntry, OptionError> {
     TECHNIQUES.iter().find(|t| t.name == name).ok_or_else(|| {
         let names: Vec<&str> = TECHNIQUES.iter().map(|t| t.name).collect();
-        GpuError::Other(format!("unknown technique '{name}' (available: {})", names.join(", ")))
+        OptionError(format!("unknown technique '{name}' (available: {})", names.join(", ")))
     })
 }
 
 /// Parse a technique spec `name[:key=value,...]` against the registry (no GPU needed): unknown names,
 /// unknown keys and out-of-range values are errors naming them.
-pub fn parse_technique(spec: &str) -> Result<(&'static TechniqueEntry, Options)> {
-    let (name, pairs) = options::split_spec(spec).map_err(|e| GpuError::Other(format!("technique {e}")))?;
+pub fn parse_technique(spec: &str) -> std::result::Result<(&'static TechniqueEntry, Options), OptionError> {
+    let (name, pairs) = options::split_spec(spec).map_err(|e| OptionError(format!("technique {e}")))?;
     let entry = technique_entry(name)?;
-    let opts = options::parse(entry.name, entry.options, &pairs).map_err(|e| GpuError::Other(e.0))?;
+    let opts = options::parse(entry.name, entry.options, &pairs)?;
     Ok((entry, opts))
 }
 
 /// A spec with every option's effective value: `isg: diffuse=map, patches=32, ...` (the viewer's
 /// option display).
-pub fn describe_technique(spec: &str) -> Result<String> {
+pub fn describe_technique(spec: &str) -> std::result::Result<String, OptionError> {
     let (entry, opts) = parse_technique(spec)?;
     let values = opts.describe(entry.options, ", ");
     Ok(if values.is_empty() { entry.name.to_string() } else { format!("{}: {values}", entry.name) })

@@ -150,10 +150,8 @@ impl IsgOptions {
     }
 
     /// Parse `key=value` pairs against [`OPTIONS`]; unknown keys and bad values are errors naming them.
-    pub fn parse(pairs: &[(String, String)]) -> crate::gpu::Result<Self> {
-        crate::options::parse("isg", OPTIONS, pairs)
-            .map(|o| Self::from_options(&o))
-            .map_err(|e| crate::gpu::GpuError::Other(e.0))
+    pub fn parse(pairs: &[(String, String)]) -> Result<Self, crate::options::OptionError> {
+        crate::options::parse("isg", OPTIONS, pairs).map(|o| Self::from_options(&o))
     }
 }
 
