@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 const ENGINE_LAYERS: &[(&str, u32)] = &[
     ("gpu", 0),
     ("options", 0),
+    ("input", 0),
     ("metrics", 0),
     ("output", 0),
     ("scene", 1),

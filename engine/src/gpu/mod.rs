@@ -51,6 +51,9 @@ pub enum GpuError {
     /// `Renderer::new`; it names the technique or the key and what it accepts).
     #[error(transparent)]
     Option(#[from] crate::options::OptionError),
+    /// The scene (or a change to it) is refused at upload: names what is wrong.
+    #[error(transparent)]
+    Scene(#[from] crate::input::SceneInputError),
     /// A submission did not finish within the fence timeout ([`Gpu::fence_timeout`]).
     #[error("GPU submission did not finish within {seconds} s: {submission} ({FENCE_TIMEOUT_ENV} sets the limit)")]
     Timeout { submission: String, seconds: f64 },
