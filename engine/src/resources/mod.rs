@@ -21,13 +21,12 @@ use layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 pub use lights::LightResources;
 use thin::{GpuThinCluster, GpuThinTriangle};
 
-/// Make `N` buffers in order; if one fails, the ones made before it are destroyed again.
-
 /// A scene refused at upload (an input error, not a GPU failure): [`crate::input::SceneInputError`].
 pub(crate) fn invalid_scene(message: impl Into<String>) -> GpuError {
     crate::input::SceneInputError(message.into()).into()
 }
 
+/// Make `N` buffers in order; if one fails, the ones made before it are destroyed again.
 pub(crate) fn make_buffers<const N: usize>(gpu: &Gpu, steps: [&dyn Fn() -> Result<Buffer>; N]) -> Result<[Buffer; N]> {
     let mut made = Vec::with_capacity(N);
     for step in steps {
