@@ -1,5 +1,5 @@
 //! Link glslang and SPIRV-Tools statically next to Debian's `libshaderc_combined.a`
-//! (DESIGN.md §6: the shared libshaderc is underlinked and mismatched; never build glslang from source).
+//! (docs/design.md §6: the shared libshaderc is underlinked and mismatched; never build glslang from source).
 fn main() {
     println!("cargo:rerun-if-env-changed=SHADERC_LIB_DIR");
     let dir = std::env::var("SHADERC_LIB_DIR").unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu".into());

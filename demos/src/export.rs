@@ -28,7 +28,7 @@
 //! importance-sampled as our reference samples (integrate.glsl: the model's half-vector density with
 //! probability mean(k_s)/(mean(k_s)+mean(ρ_d)), else cosine). Such a scene loads only from Python after
 //! `import ours_bsdf` (the `mitsuba` command line has no Python plugins). Measured against our reference on
-//! the bunny: see render.py's numbers in the README. `builtin`: Mitsuba's own BSDFs, approximate for
+//! the bunny: see render.py's numbers in docs/measuring.md. `builtin`: Mitsuba's own BSDFs, approximate for
 //! glossy materials (12.7 % off on the glossy bunny), loadable by the command line, Blinn-Phong only:
 //! each material becomes
 //! `twosided(blendbsdf(weight = w, diffuse(ρ_d/(1−w)), roughconductor(beckmann, α, material="none",

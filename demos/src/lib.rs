@@ -12,6 +12,7 @@ pub mod export;
 pub mod gltf_writer;
 pub mod measure;
 pub mod report;
+pub mod results_page;
 pub mod scenes;
 pub mod soak;
 pub mod viewer;
@@ -23,6 +24,13 @@ pub fn assets_dir() -> PathBuf {
     std::env::var_os("ENGINE_ASSETS")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets"))
+}
+
+/// Install the logger of a binary: `RUST_LOG` as `env_logger` reads it, warnings and errors when it is unset
+/// (the engine reports dropped triangles, recomputed normals, missing materials and the validation-layer
+/// fallback as warnings). Every binary of the workspace calls this or its one line first.
+pub fn init_logging() {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
 }
 
 /// The binaries' `main`: print the error with its causes as `error: …` and exit with status 1. Input quoted in

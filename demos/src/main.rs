@@ -32,7 +32,7 @@ const MAX_PROGRESS_S: f64 = 86400.0;
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
 struct Args {
     /// Scene: a registered name (the registry in demos/src/scenes), or a file: .gltf, .glb or .obj (one model on a
-    /// ground plane, framed, spheres fitted and cached) or .toml (a scene description; README: Your own scenes).
+    /// ground plane, framed, spheres fitted and cached) or .toml (a scene description; docs/scene-files.md).
     #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
     scene: String,
     /// File scenes: blocker spheres fitted per mesh (0: none; a scene file's `spheres` key wins) [default: 32].
@@ -177,6 +177,7 @@ fn parse_name(s: &str) -> Result<String, String> {
 }
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

@@ -166,6 +166,54 @@ impl ReferenceImage {
     }
 }
 
+/// The reference `compute` makes, kept in `dir` (when given) as `<stem>-<visibility>-<hash of key>.refimg`:
+/// `key` must name everything that determines the image (scene, size, materials, visibility, sample budget,
+/// time), so that a file found under it is that image and is read back instead of converging again.
+pub fn cached_reference(
+    dir: Option<&Path>,
+    stem: &str,
+    key: &str,
+    visibility: Visibility,
+    pixels: usize,
+    compute: impl FnOnce() -> Result<ReferenceImage>,
+) -> Result<ReferenceImage> {
+    let vis = visibility_name(visibility);
+    let path = dir.map(|d| {
+        let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
+        d.join(format!("{stem}-{vis}-{hash:016x}.refimg"))
+    });
+    if let Some(p) = path.as_ref().filter(|p| p.exists()) {
+        eprintln!("reference from the cache {}", p.display());
+        return ReferenceImage::load(p, visibility, pixels);
+    }
+    let r = compute()?;
+    if let Some(p) = &path {
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+        }
+        r.save(p)?;
+    }
+    Ok(r)
+}
+
+/// `scene` (registered as `name`) as its motion poses it at `t` seconds, frozen: instance transforms and bones
+/// from the motion, a simulated cloth run on the GPU to that time and baked into its mesh
+/// ([`crate::scenes::cloth::frozen_at`]), so that the reference's triangles see the same pose.
+pub fn freeze_at(gpu: &Gpu, name: &str, mut scene: Scene, t: f32) -> Result<Scene> {
+    anyhow::ensure!(t.is_finite() && t >= 0.0, "time {t}: a finite time ≥ 0");
+    let entry = crate::scenes::find(name)?;
+    if let Some(a) = crate::Animation::for_entry(entry, &scene) {
+        let pose = a.pose(t);
+        for (i, m) in pose.transforms {
+            scene.instances[i].transform = m;
+        }
+        if let Some(b) = pose.bones {
+            scene.blockers.bones = b;
+        }
+    }
+    crate::scenes::cloth::frozen_at(gpu, &scene, t)
+}
+
 pub fn visibility_name(v: Visibility) -> &'static str {
     match v {
         Visibility::Triangles => "triangles",
@@ -468,7 +516,7 @@ pub fn lit_by(scene: &Scene, lighting: Lighting) -> Scene {
 }
 
 /// `scene` with no blockers at all (spheres, thin shells and every other kind; skins and bones kept): what is
-/// left of a technique's error against the unoccluded reference is its representation error (DESIGN.md §4).
+/// left of a technique's error against the unoccluded reference is its representation error (docs/design.md §4).
 pub fn without_blockers(scene: &Scene) -> Scene {
     let mut s = scene.clone();
     s.blockers = engine::scene::SceneBlockers {
@@ -482,10 +530,15 @@ pub fn without_blockers(scene: &Scene) -> Scene {
     s
 }
 
-/// Heat map of |image − reference| scaled to a tenth of the reference's maximum.
-pub fn write_heatmap(path: &Path, hdr: &[f32], r: &ReferenceImage, width: u32, height: u32) -> Result<()> {
+/// Heat map (RGBA8) of |image − reference| scaled to a tenth of the reference's maximum.
+pub fn heatmap(hdr: &[f32], r: &ReferenceImage, width: u32, height: u32) -> Vec<u8> {
     let scale = r.hdr.iter().copied().fold(0.0f32, f32::max).max(1e-6) * 0.1;
-    metrics::write_error_heatmap(path, hdr, &r.hdr, &r.mask, width, height, scale)?;
+    metrics::error_heatmap(hdr, &r.hdr, &r.mask, width, height, scale)
+}
+
+/// [`heatmap`] written as a PNG file.
+pub fn write_heatmap(path: &Path, hdr: &[f32], r: &ReferenceImage, width: u32, height: u32) -> Result<()> {
+    engine::output::write_png(path, width, height, &heatmap(hdr, r, width, height))?;
     Ok(())
 }
 

@@ -1,7 +1,7 @@
 //! The speed-against-error report (`cargo xtask report`): a sweep of scenes × technique specs × shading rates,
 //! defined in one config file (tools/report/sweep.json), each measured for GPU time (median of ≥ 5 frames,
 //! timestamp queries) and error against the converged Monte Carlo reference; plus the error decomposition of
-//! DESIGN.md §4 (SHEXP Fig. 7) on every scene with blocker spheres: proxy error (sphere-proxy reference against
+//! docs/design.md §4 (SHEXP Fig. 7) on every scene with blocker spheres: proxy error (sphere-proxy reference against
 //! the triangle reference), technique error (technique against the sphere-proxy reference) and representation
 //! error (technique on the scene without blockers against the unoccluded reference); and the error split by
 //! region (each object's pixels, exactly from the G-buffer) and by lighting (the environment's upper and lower
@@ -52,6 +52,18 @@ pub struct Sweep {
     /// lighting (default: true; costs two (three) more references per visibility and frames per technique).
     #[serde(default = "yes")]
     pub split_lighting: bool,
+    /// Also measure every technique on the scene without blockers against the unoccluded reference (the
+    /// representation error; default: true; costs one more reference and frame per technique).
+    #[serde(default = "yes")]
+    pub representation: bool,
+    /// Keep the converged references in this folder (relative to the workspace root), keyed by everything that
+    /// determines them, and reuse them on the next run (`measure::cached_reference`). With a cache, set a small
+    /// `fraction` so that `max_spp` decides: the fraction rule converges against the techniques of the first run.
+    #[serde(default)]
+    pub reference_cache: Option<String>,
+    /// Write the results page (index.html, README.md, the summary) for this sweep ([`Site`]).
+    #[serde(default)]
+    pub site: Option<Site>,
     pub scenes: Vec<SceneSpec>,
     /// Technique specs as `demo --technique` takes them (`none`, `isg:patches=8,K=4`, …).
     pub techniques: Vec<String>,
@@ -61,6 +73,24 @@ pub struct Sweep {
 
 fn yes() -> bool {
     true
+}
+
+/// The results page of a sweep (docs/results: see [`crate::results_page`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Site {
+    /// Output folder, relative to the workspace root (the default `--out` of this sweep).
+    pub out: String,
+    /// The scene of the first-screen picture…
+    pub hero_scene: String,
+    /// …and its techniques, left to right, per pixel; the triangle reference follows them.
+    pub hero_techniques: Vec<String>,
+    /// The techniques of the summary table and plot (per pixel), usually each technique at its defaults.
+    pub summary_techniques: Vec<String>,
+    /// A Markdown file (relative to the workspace root) whose block between [`crate::results_page::BEGIN`] and
+    /// [`crate::results_page::END`] is replaced by the summary (the project's README.md).
+    #[serde(default)]
+    pub readme: Option<String>,
 }
 
 /// A scene of the sweep, optionally with material 0 overridden.
@@ -84,6 +114,10 @@ pub struct SceneSpec {
     /// Shading rates for this scene instead of the sweep's.
     #[serde(default)]
     pub shading: Option<Vec<String>>,
+    /// Measure the scene as its motion poses it at this time (s), frozen (`measure::freeze_at`, as `compare
+    /// --time`): a piece mid-slide, the cloth landed, the club raised.
+    #[serde(default)]
+    pub time: Option<f32>,
 }
 
 impl SceneSpec {
@@ -123,6 +157,11 @@ pub fn check_scenes(sweep: &Sweep) -> Result<()> {
     Ok(())
 }
 
+/// The workspace root (where the sweep's relative folders start).
+pub fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
 /// The default config: tools/report/sweep.json.
 pub fn default_config() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/report/sweep.json")
@@ -142,7 +181,7 @@ pub struct Row {
     pub frame_ms: f64,
     pub vs_triangles: Option<Errors>,
     pub vs_spheres: Option<Errors>,
-    /// Representation error (DESIGN.md §4): the technique on the scene without blockers against the unoccluded
+    /// Representation error (docs/design.md §4): the technique on the scene without blockers against the unoccluded
     /// reference (scenes with blocker spheres only).
     pub representation: Option<Errors>,
 }
@@ -235,8 +274,36 @@ impl From<&ReferenceImage> for ReferenceSummary {
     }
 }
 
+/// One image of a scene on the results page, PNG-encoded, with its error heat maps.
+#[derive(Clone, Debug)]
+pub struct PageImage {
+    /// `spec (shading)` for a technique, `reference (triangles)` / `reference (spheres)` for a reference.
+    pub label: String,
+    /// The technique spec (`none`, `isg:diffuse=ratio`, …) or `reference/<visibility>`.
+    pub spec: String,
+    /// `pixel`, `vertex`, or `reference`.
+    pub group: String,
+    /// The tone-mapped RGBA8 image and its PNG file.
+    pub ldr: Vec<u8>,
+    pub png: Vec<u8>,
+    /// |image − triangle reference| and |image − sphere-proxy reference| ([`measure::heatmap`]).
+    pub heat_triangles: Option<Vec<u8>>,
+    pub heat_spheres: Option<Vec<u8>>,
+}
+
+/// The images of one scene of the sweep.
+#[derive(Clone, Debug)]
+pub struct SceneImages {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub images: Vec<PageImage>,
+}
+
 /// Everything a sweep measured.
 pub struct Results {
+    /// Every scene's images (for the results page), in sweep order.
+    pub images: Vec<SceneImages>,
     pub rows: Vec<Row>,
     pub references: Vec<SceneReferences>,
     /// Thumbnails per scene: (caption, path relative to the output folder).
@@ -284,10 +351,12 @@ fn shading_flag(s: &str) -> Result<bool> {
     }
 }
 
-/// Run the sweep, printing progress to stderr, and write every output into `out`.
-pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
+/// Run the sweep, printing progress to stderr, and write every output into `out`; `command` is the command line
+/// that ran it (the results page names it).
+pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path, command: &str) -> Result<Results> {
     let img = out.join("img");
-    std::fs::create_dir_all(&img).with_context(|| format!("creating {}", img.display()))?;
+    std::fs::create_dir_all(if sweep.site.is_none() { &img } else { out })
+        .with_context(|| format!("creating {}", img.display()))?;
     let shadings = |spec: &SceneSpec| spec.shading.clone().unwrap_or_else(|| sweep.shading.clone());
     for s in sweep.scenes.iter().flat_map(shadings) {
         shading_flag(&s)?;
@@ -298,6 +367,10 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     let total: usize = sweep.scenes.iter().map(|s| shadings(s).len() * sweep.techniques.len()).sum();
     let mut done = 0;
     let t0 = std::time::Instant::now();
+    let cache = sweep.reference_cache.as_ref().map(|d| workspace_root().join(d));
+    let pixels = (w * h) as usize;
+    // A results page embeds its images; the plain report writes them into img/.
+    let write_images = sweep.site.is_none();
     let settings = |shading: &str, tech: &str| -> Result<RenderSettings> {
         Ok(RenderSettings {
             width: w,
@@ -308,6 +381,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
         })
     };
     let mut results = Results {
+        images: Vec::new(),
         rows: Vec::new(),
         references: Vec::new(),
         thumbnails: Vec::new(),
@@ -327,6 +401,9 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
         }
         if let Some(b) = &spec.brdf {
             crate::apply_brdf(&mut scene, b)?;
+        }
+        if let Some(t) = spec.time {
+            scene = measure::freeze_at(gpu, &spec.scene, scene, t).with_context(|| format!("{label} at {t} s"))?;
         }
         let has_spheres = scene.blockers.spheres.iter().any(Option::is_some);
         let mut measured: Vec<(String, Measured)> = Vec::new();
@@ -358,7 +435,22 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 max_spp: sweep.max_spp,
                 samples_per_frame: sweep.samples_per_frame,
             };
-            let r = measure::converge_reference(gpu, &scene, &base, &run, &against)?;
+            let key = format!(
+                "{}|{:?}|{:?}|{:?}|{:?}|{w}x{h}|{}|{}|{}|{}",
+                spec.scene,
+                spec.gloss,
+                spec.ks,
+                spec.brdf,
+                spec.time.map(f32::to_bits),
+                measure::visibility_name(vis),
+                sweep.fraction,
+                sweep.max_spp,
+                sweep.samples_per_frame
+            );
+            let r =
+                measure::cached_reference(cache.as_deref(), &measure::file_stem(&label), &key, vis, pixels, || {
+                    measure::converge_reference(gpu, &scene, &base, &run, &against)
+                })?;
             eprintln!(
                 "{label}: {} reference: {} spp, relative standard error {:.3} % ({}converged) in {:.1} s",
                 measure::visibility_name(vis),
@@ -374,25 +466,73 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
 
         let stem = measure::file_stem(&label);
         let mut thumbs = Vec::new();
-        let save = |thumbs: &mut Vec<(String, String)>, name: String, caption: String, ldr: &[u8]| -> Result<()> {
-            engine::output::write_png(&img.join(&name), w, h, ldr)?;
-            thumbs.push((caption, format!("img/{name}")));
-            Ok(())
-        };
-        save(&mut thumbs, format!("{stem}-reference-triangles.png"), "reference (triangles)".into(), &tri.ldr)?;
+        let mut page = SceneImages { scene: label.clone(), width: w, height: h, images: Vec::new() };
+        let keep =
+            |thumbs: &mut Vec<(String, String)>, name: String, caption: String, rgba: &[u8]| -> Result<Vec<u8>> {
+                let png = engine::output::encode_png(w, h, rgba).map_err(anyhow::Error::msg)?;
+                if write_images {
+                    let path = img.join(&name);
+                    std::fs::write(&path, &png).with_context(|| format!("writing {}", path.display()))?;
+                    thumbs.push((caption, format!("img/{name}")));
+                }
+                Ok(png)
+            };
+        let png =
+            keep(&mut thumbs, format!("{stem}-reference-triangles.png"), "reference (triangles)".into(), &tri.ldr)?;
+        page.images.push(PageImage {
+            label: "reference (triangles)".into(),
+            spec: "reference/triangles".into(),
+            group: "reference".into(),
+            ldr: tri.ldr.clone(),
+            png,
+            heat_triangles: None,
+            heat_spheres: None,
+        });
         if let Some(s) = &sph {
-            save(&mut thumbs, format!("{stem}-reference-spheres.png"), "reference (spheres)".into(), &s.ldr)?;
-            let heat = format!("{stem}-proxy-error.png");
-            measure::write_heatmap(&img.join(&heat), &s.hdr, &tri, w, h)?;
-            thumbs.push(("proxy error |spheres − triangles|".into(), format!("img/{heat}")));
+            let png = keep(&mut thumbs, format!("{stem}-reference-spheres.png"), "reference (spheres)".into(), &s.ldr)?;
+            let heat = keep(
+                &mut thumbs,
+                format!("{stem}-proxy-error.png"),
+                "proxy error |spheres − triangles|".into(),
+                &measure::heatmap(&s.hdr, &tri, w, h),
+            )?;
+            page.images.push(PageImage {
+                label: "reference (spheres)".into(),
+                spec: "reference/spheres".into(),
+                group: "reference".into(),
+                ldr: s.ldr.clone(),
+                png,
+                heat_triangles: Some(heat),
+                heat_spheres: None,
+            });
         }
         for (shading, m) in &measured {
             let name = format!("{stem}-{shading}-{}", measure::file_stem(&m.spec));
-            save(&mut thumbs, format!("{name}.png"), format!("{} ({shading})", m.spec), &m.ldr)?;
-            measure::write_heatmap(&img.join(format!("{name}-error.png")), &m.hdr, &tri, w, h)?;
-            thumbs.push((format!("{} ({shading}) error vs triangles", m.spec), format!("img/{name}-error.png")));
+            let label = format!("{} ({shading})", m.spec);
+            let png = keep(&mut thumbs, format!("{name}.png"), label.clone(), &m.ldr)?;
+            let heat_triangles = keep(
+                &mut thumbs,
+                format!("{name}-error.png"),
+                format!("{label} error vs triangles"),
+                &measure::heatmap(&m.hdr, &tri, w, h),
+            )?;
+            let heat_spheres = match &sph {
+                Some(s) => Some(
+                    engine::output::encode_png(w, h, &measure::heatmap(&m.hdr, s, w, h)).map_err(anyhow::Error::msg)?,
+                ),
+                None => None,
+            };
+            page.images.push(PageImage {
+                label,
+                spec: m.spec.clone(),
+                group: shading.clone(),
+                ldr: m.ldr.clone(),
+                png,
+                heat_triangles: Some(heat_triangles),
+                heat_spheres,
+            });
             results.rows.push(Row {
-                scene: label.clone(),
+                scene: page.scene.clone(),
                 shading: shading.clone(),
                 technique: m.spec.clone(),
                 shade_ms: m.shade_ms,
@@ -402,16 +542,17 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 representation: None,
             });
         }
+        results.images.push(page);
         // The references as rows: the sphere-proxy reference against the triangles is the proxy error. Both
         // share their random numbers (same seed and frames), so the noise of their difference is estimated from
         // the difference's own halves, not as the two noises added.
         let between =
             |a: &ReferenceImage, b: &ReferenceImage| measure::errors_of(&a.hdr, Some(&a.halves), &a.ldr, b, w, h);
 
-        // Representation error (DESIGN.md §4): every technique on the scene without blockers against the
+        // Representation error (docs/design.md §4): every technique on the scene without blockers against the
         // unoccluded reference; what is left is the technique's fit of the lighting and BRDF.
         let mut representation: Vec<Option<Errors>> = vec![None; measured.len()];
-        if has_spheres {
+        if has_spheres && sweep.representation {
             let free = measure::without_blockers(&scene);
             let mut images = Vec::new();
             for (shading, m) in &measured {
@@ -511,11 +652,18 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     write_csv(&out.join("results.csv"), &results.rows)?;
     write_regions_csv(&out.join("regions.csv"), &results.regions)?;
     write_plots(out, &results.rows)?;
-    let readme = readme(gpu, sweep, &results);
-    std::fs::write(out.join("README.md"), readme).with_context(|| format!("writing {}/README.md", out.display()))?;
+    match &sweep.site {
+        Some(site) => crate::results_page::write(out, sweep, site, &results, &gpu.info.name, command)?,
+        None => {
+            let readme = readme(gpu, sweep, &results);
+            std::fs::write(out.join("README.md"), readme)
+                .with_context(|| format!("writing {}/README.md", out.display()))?;
+        }
+    }
     eprintln!(
-        "wrote {}/results.csv, regions.csv, pareto*.svg, decomposition*.svg, README.md and img/ in {:.0} s",
+        "wrote {}/results.csv, regions.csv, pareto*.svg, decomposition*.svg, README.md{} in {:.0} s",
         out.display(),
+        if write_images { " and img/" } else { ", index.html and the summary" },
         t0.elapsed().as_secs_f64()
     );
     Ok(results)
@@ -670,27 +818,42 @@ fn region_rows(
 }
 
 pub fn write_regions_csv(path: &Path, rows: &[RegionRow]) -> Result<()> {
-    let mut s = format!("{REGIONS_HEADER}\n");
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},\"{}\",\"{}\",{},{},{},{},{},{},{},{},{}",
-            r.scene,
-            r.shading,
-            r.image.replace('"', "\"\""),
-            r.region.replace('"', "\"\""),
-            r.lighting,
-            r.against,
-            num(r.rmse),
-            num(r.debiased),
-            num(r.noise),
-            num(r.of_whole),
-            num(r.of_whole_debiased),
-            num(r.error_share),
-            num(r.radiance_share)
-        );
-    }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    write_records(
+        path,
+        REGIONS_HEADER,
+        rows.iter().map(|r| {
+            vec![
+                r.scene.clone(),
+                r.shading.clone(),
+                r.image.clone(),
+                r.region.clone(),
+                r.lighting.to_string(),
+                r.against.to_string(),
+                num(r.rmse),
+                num(r.debiased),
+                num(r.noise),
+                num(r.of_whole),
+                num(r.of_whole_debiased),
+                num(r.error_share),
+                num(r.radiance_share),
+            ]
+        }),
+    )
+}
+
+/// A CSV file of `header` and `records` (the `csv` crate quotes the fields that need it: technique specs hold
+/// commas, `isg:patches=8,K=4`).
+fn write_records(path: &Path, header: &str, records: impl Iterator<Item = Vec<String>>) -> Result<()> {
+    let write = || -> Result<()> {
+        let mut w = csv::Writer::from_path(path)?;
+        w.write_record(header.split(','))?;
+        for r in records {
+            w.write_record(&r)?;
+        }
+        w.flush()?;
+        Ok(())
+    };
+    write().with_context(|| format!("writing {}", path.display()))
 }
 
 fn num(v: f64) -> String {
@@ -701,33 +864,29 @@ fn num(v: f64) -> String {
     }
 }
 
-fn errs(e: &Option<Errors>) -> String {
+fn errs(e: &Option<Errors>) -> [String; 4] {
     match e {
-        Some(e) => format!("{},{},{},{}", num(e.rmse), num(e.debiased), num(e.max_abs), num(e.flip)),
-        None => ",,,".into(),
+        Some(e) => [num(e.rmse), num(e.debiased), num(e.max_abs), num(e.flip)],
+        None => Default::default(),
     }
 }
 
 pub fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
-    let mut s = format!("{CSV_HEADER}\n");
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{}",
-            r.scene,
-            r.shading,
-            // Specs hold commas (isg:patches=8,K=4): quote.
-            format_args!("\"{}\"", r.technique.replace('"', "\"\"")),
-            num(r.shade_ms),
-            num(r.frame_ms),
-            errs(&r.vs_triangles),
-            errs(&r.vs_spheres),
-            r.vs_triangles.map_or(String::new(), |e| num(e.noise)),
-            r.vs_spheres.map_or(String::new(), |e| num(e.noise)),
-            r.representation.map_or(",".into(), |e| format!("{},{}", num(e.rmse), num(e.debiased)))
-        );
-    }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    write_records(
+        path,
+        CSV_HEADER,
+        rows.iter().map(|r| {
+            let mut rec =
+                vec![r.scene.clone(), r.shading.clone(), r.technique.clone(), num(r.shade_ms), num(r.frame_ms)];
+            rec.extend(errs(&r.vs_triangles));
+            rec.extend(errs(&r.vs_spheres));
+            rec.push(r.vs_triangles.map_or(String::new(), |e| num(e.noise)));
+            rec.push(r.vs_spheres.map_or(String::new(), |e| num(e.noise)));
+            rec.push(r.representation.map_or(String::new(), |e| num(e.rmse)));
+            rec.push(r.representation.map_or(String::new(), |e| num(e.debiased)));
+            rec
+        }),
+    )
 }
 
 /// Technique family of a spec: the spec without its swept sizes `patches` and `K`
@@ -790,7 +949,7 @@ fn pareto(title: &str, rows: &[&Row], against: Against) -> plot::Plot {
     p
 }
 
-/// The error decomposition of DESIGN.md §4 against cost: per technique and shading, the total error (vs the
+/// The error decomposition of docs/design.md §4 against cost: per technique and shading, the total error (vs the
 /// triangle reference), the technique error (vs the sphere-proxy reference) and the representation error (no
 /// blockers vs the unoccluded reference), all minus noise; the proxy error as a dashed horizontal line.
 fn decomposition_plot(title: &str, rows: &[&Row]) -> Option<plot::Plot> {
@@ -949,7 +1108,7 @@ fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
                 s,
                 "Proxy error = the sphere-proxy reference against the triangle reference: **{:.2} %** relative RMSE \
                  ({:.2} % minus the noise of their difference, which is {:.2} %; FLIP {:.4}). Technique error = \
-                 technique against the sphere-proxy reference. Representation error (DESIGN.md §4) = the technique \
+                 technique against the sphere-proxy reference. Representation error (docs/design.md §4) = the technique \
                  on the scene without blockers against the unoccluded reference (its fit of lighting and BRDF). \
                  Each as relative RMSE % / minus noise.\n",
                 p.rmse, p.debiased, p.noise, p.flip

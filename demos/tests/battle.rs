@@ -63,7 +63,7 @@ fn the_scene_loads_the_characters_with_their_clips_and_counts() {
         dynamic + fixed,
         scene.instances.len()
     );
-    // The README's counts.
+    // The counts docs/scenes.md gives.
     assert_eq!((characters::troll(RINGS).sphere_count(), characters::wizard(RINGS).sphere_count()), (69, 77));
     assert_eq!((skinned_spheres, spheres), (146, 238), "leaf spheres (the paper: 244)");
     assert_eq!((dynamic, fixed), (22_686, 34_339), "vertices (the paper: 24k dynamic, 41k static)");

@@ -7,18 +7,14 @@
 
 use demos::report::{self, CSV_HEADER, REGIONS_HEADER};
 
-/// Split a CSV line, honouring double quotes.
-fn cells(line: &str) -> Vec<String> {
-    let (mut out, mut cur, mut quoted) = (Vec::new(), String::new(), false);
-    for c in line.chars() {
-        match c {
-            '"' => quoted = !quoted,
-            ',' if !quoted => out.push(std::mem::take(&mut cur)),
-            c => cur.push(c),
-        }
-    }
-    out.push(cur);
-    out
+/// The records of a CSV file (header first), read with the `csv` crate the report writes it with.
+fn records(text: &str) -> Vec<Vec<String>> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_reader(text.as_bytes())
+        .records()
+        .map(|r| r.expect("a CSV record").iter().map(str::to_string).collect())
+        .collect()
 }
 
 #[test]
@@ -28,15 +24,14 @@ fn tiny_sweep_runs_end_to_end() {
     let _ = std::fs::remove_dir_all(&out);
     // The validation layer required, leaks and validation errors fail the test (even without shutdown).
     let gpu = engine::gpu::testing::test_gpu().expect("gpu");
-    let res = report::run(&gpu, &sweep, &out);
+    let res = report::run(&gpu, &sweep, &out, "cargo xtask report --tiny");
     gpu.shutdown().expect("clean teardown");
     let res = res.expect("tiny sweep");
 
     let csv = std::fs::read_to_string(out.join("results.csv")).expect("results.csv");
-    let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some(CSV_HEADER));
+    let mut rows = records(&csv);
+    assert_eq!(rows.remove(0).join(","), CSV_HEADER);
     let columns = CSV_HEADER.split(',').count();
-    let rows: Vec<Vec<String>> = lines.map(cells).collect();
     assert!(rows.iter().all(|r| r.len() == columns), "{rows:?}");
     let num = |r: &Vec<String>, name: &str| -> Option<f64> {
         let i = CSV_HEADER.split(',').position(|c| c == name).unwrap();
@@ -80,9 +75,8 @@ fn tiny_sweep_runs_end_to_end() {
     }
 
     let regions = std::fs::read_to_string(out.join("regions.csv")).expect("regions.csv");
-    let mut lines = regions.lines();
-    assert_eq!(lines.next(), Some(REGIONS_HEADER));
-    let region_rows: Vec<Vec<String>> = lines.map(cells).collect();
+    let mut region_rows = records(&regions);
+    assert_eq!(region_rows.remove(0).join(","), REGIONS_HEADER);
     assert_eq!(region_rows.len(), res.regions.len());
     let col = |name: &str| REGIONS_HEADER.split(',').position(|c| c == name).unwrap();
     let f = |r: &Vec<String>, name: &str| -> f64 { r[col(name)].parse().unwrap_or(f64::NAN) };

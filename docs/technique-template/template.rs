@@ -21,7 +21,9 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     reads: Reads { lights: false, blockers: false, thin: false, geometry: false, env_lights: false },
     // It ignores specular and lights, so it equals `none` only on diffuse scenes without lights.
     tolerances: Tolerances { furnace: 1e-3, unoccluded_vs_none: 1e-5, one_sphere: None, one_plane: None, samples: 0 },
-    create: |gpu, o| Ok(Box::new(Template { pipelines: TargetPipelines::new(gpu, "template")?, gain: o.float("gain") })),
+    create: |gpu, o| {
+        Ok(Box::new(Template { pipelines: TargetPipelines::new(gpu, "template")?, gain: o.float("gain") }))
+    },
 };
 
 pub struct Template {

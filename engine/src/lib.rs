@@ -2,7 +2,7 @@
 //!
 //! Layers, lowest first; a module imports only from layers below it or its own (checked by
 //! tests/tests/layering.rs, which reads these sources):
-//! 0. `gpu` (the only raw Vulkan), `options` (spec parsing), `metrics`, `output`;
+//! 0. `gpu` (the only raw Vulkan), `options` (spec parsing), `input` (scene input errors), `metrics`, `output`;
 //!    the crates `engine_math` (f64 math) and `engine_blockers` (sphere sets, BVH) sit beside them;
 //! 1. `scene` (plain data: meshes, materials, environment, lights, camera; loaders);
 //! 2. `tables` (the math tables in device memory);
@@ -18,6 +18,7 @@ pub use engine_io as io;
 pub use engine_math as math;
 
 pub mod gpu;
+pub mod input;
 
 pub mod metrics;
 pub mod options;

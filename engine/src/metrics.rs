@@ -1,4 +1,4 @@
-//! Error metrics of an image against a reference (DESIGN.md §4): relative RMSE in % over covered
+//! Error metrics of an image against a reference (docs/design.md §4): relative RMSE in % over covered
 //! pixels (the papers' "RMS error"), maximum error, FLIP mean (`nv-flip`, on tone-mapped sRGB), and
 //! error heat-map images. Images are linear RGBA32F, row-major from the top-left, as
 //! `Renderer::read_radiance` returns them; the alpha channel is ignored.

@@ -1,7 +1,7 @@
 //! One typed parser for `name:key=value,...` specs (every technique's options, `--brdf`), driven by
 //! a schema: per key its type, range, default and help. Unknown keys, bad values and out-of-range
 //! values are errors that name the key and what it accepts (Mitsuba's unqueried-property rule). The
-//! same schema generates the `--help` text and the README's option tables.
+//! same schema generates the `--help` text and the option tables of docs/techniques/.
 
 use engine_io::excerpt;
 use std::fmt::Write as _;
@@ -212,7 +212,7 @@ pub fn help_lines(schema: &[OptionSpec], indent: &str) -> String {
     out
 }
 
-/// A Markdown table of the schema (the README's option tables are checked against this).
+/// A Markdown table of the schema (the option tables of docs/techniques/ are checked against this).
 pub fn markdown_table(schema: &[OptionSpec]) -> String {
     let mut out = String::from("| option | default | values | meaning |\n|---|---|---|---|\n");
     for s in schema {

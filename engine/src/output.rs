@@ -27,16 +27,24 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgba: &[f32]) -> Result<(
 
 /// Write RGBA8 texels as an sRGB PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<(), OutputError> {
-    if rgba.len() != (width * height * 4) as usize {
-        return Err(err(path, format!("{} bytes for a {width}x{height} RGBA8 image", rgba.len())));
+    let bytes = encode_png(width, height, rgba).map_err(|e| err(path, e))?;
+    std::fs::write(path, bytes).map_err(|e| err(path, e))
+}
+
+/// RGBA8 texels as the bytes of an sRGB PNG file (for pages that embed their images).
+pub fn encode_png(width: u32, height: u32, rgba: &[u8]) -> Result<Vec<u8>, String> {
+    if rgba.len() != (width as usize) * (height as usize) * 4 {
+        return Err(format!("{} bytes for a {width}x{height} RGBA8 image", rgba.len()));
     }
-    let file = std::fs::File::create(path).map_err(|e| err(path, e))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, width, height);
     enc.set_color(png::ColorType::Rgba);
     enc.set_depth(png::BitDepth::Eight);
     enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    let mut w = enc.write_header().map_err(|e| err(path, e))?;
-    w.write_image_data(rgba).map_err(|e| err(path, e))
+    let mut w = enc.write_header().map_err(|e| e.to_string())?;
+    w.write_image_data(rgba).map_err(|e| e.to_string())?;
+    w.finish().map_err(|e| e.to_string())?;
+    Ok(bytes)
 }
 
 /// Read a PNG as 8-bit RGBA: (width, height, RGBA8 bytes). Palette, grey and grey-alpha images are expanded,

@@ -159,10 +159,10 @@ impl Renderer {
     pub fn new(gpu: &Gpu, scene: &Scene, settings: RenderSettings) -> Result<Self> {
         let side = 1..=MAX_RESOLUTION;
         if !side.contains(&settings.width) || !side.contains(&settings.height) {
-            return Err(GpuError::Other(format!(
+            return Err(crate::options::OptionError(format!(
                 "resolution {}x{}: width and height must be in 1..={MAX_RESOLUTION}",
                 settings.width, settings.height
-            )));
+            )).into());
         }
         let (w, h) = (settings.width, settings.height);
         let mut p = Parts::default();
@@ -315,7 +315,7 @@ impl Renderer {
     pub fn set_instance_transform(&mut self, i: usize, transform: glam::Mat4) -> Result<()> {
         let count = self.scene.geometry.objects.desc.size as usize / std::mem::size_of::<GpuObject>();
         if i >= count || !transform.is_finite() {
-            return Err(GpuError::Other(format!("instance {i} of {count}, or a non-finite transform")));
+            return Err(crate::resources::invalid_scene(format!("instance {i} of {count}, or a non-finite transform")));
         }
         let object = GpuObject {
             model: transform.to_cols_array(),
@@ -330,7 +330,7 @@ impl Renderer {
     /// pass and the blocker spheres alike. `bones.len()` must equal the scene's bone count.
     pub fn set_bones(&mut self, bones: &[glam::Mat4]) -> Result<()> {
         if bones.len() != self.scene.geometry.bone_count as usize || bones.iter().any(|m| !m.is_finite()) {
-            return Err(GpuError::Other(format!(
+            return Err(crate::resources::invalid_scene(format!(
                 "{} bone matrices (the scene has {}), or a non-finite one",
                 bones.len(),
                 self.scene.geometry.bone_count
@@ -348,7 +348,7 @@ impl Renderer {
         use crate::resources::layout::GpuMaterial;
         let count = self.scene.materials.desc.size as usize / std::mem::size_of::<GpuMaterial>();
         if materials.len() != count {
-            return Err(GpuError::Other(format!(
+            return Err(crate::resources::invalid_scene(format!(
                 "{} materials given, the scene has {count} (set_materials replaces them one for one)",
                 materials.len()
             )));
@@ -357,7 +357,7 @@ impl Renderer {
         if let Some(i) =
             gpu_materials.iter().position(|m| !bytemuck::cast_slice::<_, f32>(&[*m]).iter().all(|x| x.is_finite()))
         {
-            return Err(GpuError::Other(format!("material {i} has a non-finite parameter")));
+            return Err(crate::resources::invalid_scene(format!("material {i} has a non-finite parameter")));
         }
         gpu.copy_to_buffer(&self.scene.materials, bytemuck::cast_slice(&gpu_materials))?;
         self.technique.materials_changed();
@@ -369,7 +369,7 @@ impl Renderer {
     /// earlier than the state (`engine::passes::cloth`).
     pub fn set_time(&mut self, t: f32) -> Result<()> {
         if !t.is_finite() || t < 0.0 {
-            return Err(GpuError::Other(format!("scene time {t} s (finite, ≥ 0)")));
+            return Err(crate::resources::invalid_scene(format!("scene time {t} s (finite, ≥ 0)")));
         }
         self.time = t as f64;
         Ok(())

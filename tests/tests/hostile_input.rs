@@ -296,6 +296,8 @@ fn bad_plane_blockers_are_refused_naming_them() {
     s.blockers.planes = vec![BlockerPlane::rectangle(DVec3::ZERO, DVec3::X, DVec3::ZERO)];
     assert!(err(&s).contains("plane blocker 0"));
     s.blockers.planes = vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y); MAX_PLANES + 1];
+    // A scene input error, typed apart from GPU failures (it was GpuError::Other).
+    assert!(matches!(gather_planes(&s), Err(engine::gpu::GpuError::Scene(_))));
     let e = err(&s);
     assert!(e.contains(&format!("at most {MAX_PLANES}")), "{e}");
 }

@@ -206,7 +206,7 @@ fn hundreds_of_overlapping_spheres() {
     gpu.shutdown().expect("clean teardown");
 }
 
-// The cost-model counter variants (option `counters`, README "cost model") compile for both shading rates:
+// The cost-model counter variants (option `counters`, docs/techniques/isg.md "Cost model") compile for both shading rates:
 // only `sphere_scaling --counters` runs them (lavapipe takes minutes to build their pipelines), so a shader
 // change that breaks them would otherwise go unseen. shaderc only, no GPU.
 #[test]

@@ -1,6 +1,8 @@
 //! The layering written in engine/src/lib.rs is true: a module imports only from lower layers or from
-//! itself, and neither the engine's modules nor the math crate's import each other in a circle. Reads
-//! the sources (comments stripped), so a new `use crate::renderer` in a pass fails here.
+//! itself, and neither the engine's modules nor the math crate's import each other in a circle, at the level
+//! of the top modules (`crate::` paths) and at the level of every file's module (`crate::`, `super::` and
+//! `self::` paths, so that two sibling files such as `isg/cpu.rs` and `isg/thin.rs` cannot import each
+//! other). Reads the sources (comments stripped), so a new `use crate::renderer` in a pass fails here.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -9,6 +11,7 @@ use std::path::{Path, PathBuf};
 const ENGINE_LAYERS: &[(&str, u32)] = &[
     ("gpu", 0),
     ("options", 0),
+    ("input", 0),
     ("metrics", 0),
     ("output", 0),
     ("scene", 1),
@@ -128,6 +131,118 @@ fn find_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>>
     None
 }
 
+/// A file's module path under `src`: `passes/shade/isg/cpu.rs` → `[passes, shade, isg, cpu]`, a `mod.rs` →
+/// its folder's, `lib.rs` → `[]`.
+fn module_path(src: &Path, file: &Path) -> Vec<String> {
+    let rel = file.strip_prefix(src).expect("under src");
+    let mut parts: Vec<String> = rel.components().map(|c| c.as_os_str().to_string_lossy().to_string()).collect();
+    let last = parts.pop().unwrap_or_default();
+    let stem = last.strip_suffix(".rs").unwrap_or(&last).to_string();
+    if stem != "mod" && stem != "lib" && stem != "main" {
+        parts.push(stem);
+    }
+    parts
+}
+
+/// The paths a module's code names through `crate::`, `super::` (any number) and `self::`, resolved to absolute
+/// segment lists, `use` groups (`super::{a::X, b}`) expanded one level. `me` is the module the code is in.
+fn path_refs(code: &str, me: &[String]) -> Vec<Vec<String>> {
+    let ident = |s: &str| s.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect::<String>();
+    // The segments of a path at the start of `s` (`a::b::c`), and what follows it.
+    fn segments(s: &str, ident: &dyn Fn(&str) -> String) -> (Vec<String>, usize) {
+        let (mut out, mut at) = (Vec::new(), 0);
+        loop {
+            let id = ident(&s[at..]);
+            if id.is_empty() {
+                break;
+            }
+            at += id.len();
+            out.push(id);
+            if s[at..].starts_with("::") {
+                at += 2;
+            } else {
+                break;
+            }
+        }
+        (out, at)
+    }
+    let mut out = Vec::new();
+    for (i, _) in code.match_indices("::") {
+        // Find each path's first segment: the identifier before the first `::` not preceded by `::`.
+        let head_start = code[..i].rfind(|c: char| !(c.is_alphanumeric() || c == '_')).map_or(0, |p| p + 1);
+        if code[..head_start].ends_with("::") {
+            continue;
+        }
+        let head = &code[head_start..i];
+        if !matches!(head, "crate" | "super" | "self") {
+            continue;
+        }
+        let (segs, end) = segments(&code[head_start..], &ident);
+        let mut base: Vec<String> = match head {
+            "crate" => Vec::new(),
+            _ => me.to_vec(),
+        };
+        let mut rest = segs.into_iter().skip(1).peekable();
+        if head == "super" {
+            base.pop();
+        }
+        while rest.peek().is_some_and(|s| s == "super") {
+            base.pop();
+            rest.next();
+        }
+        base.extend(rest.filter(|s| s != "self"));
+        let after = &code[head_start + end..];
+        if let Some(group) = after.strip_prefix('{') {
+            let end = group.find('}').unwrap_or(group.len());
+            for part in group[..end].split(',') {
+                let (segs, _) = segments(part.trim(), &ident);
+                let mut p = base.clone();
+                p.extend(segs.into_iter().filter(|s| s != "self"));
+                out.push(p);
+            }
+        } else {
+            out.push(base);
+        }
+    }
+    out
+}
+
+/// Module → modules it references, one node per file, over a crate's `src`. A reference counts when it names a
+/// module that is neither the file's own nor one of its ancestors or descendants (a child using its parent's
+/// items, or a parent re-exporting its child's, is how Rust modules are built, not a circle); code after an
+/// inline `mod NAME {` (the tests) is resolved inside that module and counted for its file.
+fn file_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let modules: BTreeSet<Vec<String>> = files.iter().map(|f| module_path(src, f)).collect();
+    let related = |a: &[String], b: &[String]| a.starts_with(b) || b.starts_with(a);
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for f in &files {
+        let me = module_path(src, f);
+        let code = code_of(f);
+        // (code, the module it is in): the file's top, then an inline module's body.
+        let mut parts = vec![(code.as_str(), me.clone())];
+        if let Some(at) = code.find("mod tests {") {
+            let mut inner = me.clone();
+            inner.push("tests".into());
+            parts = vec![(&code[..at], me.clone()), (&code[at..], inner)];
+        }
+        let node = graph.entry(me.join("::")).or_default();
+        for (text, at) in parts {
+            for p in path_refs(text, &at) {
+                // The longest prefix of the path that is a module (the rest names items in it).
+                let Some(target) = (0..=p.len()).rev().map(|n| p[..n].to_vec()).find(|m| modules.contains(m)) else {
+                    continue;
+                };
+                if !related(&target, &me) {
+                    node.insert(target.join("::"));
+                }
+            }
+        }
+    }
+    graph
+}
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
@@ -160,6 +275,53 @@ fn no_import_circles_in_the_math_blocker_and_io_crates() {
         assert!(!graph.is_empty(), "{krate}: no modules found");
         assert_eq!(find_cycle(&graph), None, "{krate}: an import circle between modules");
     }
+}
+
+#[test]
+fn no_import_circles_between_files() {
+    for krate in ["engine/src", "engine/math/src", "engine/blockers/src"] {
+        let graph = file_graph(&root().join(krate));
+        assert!(graph.len() > 5, "{krate}: {} modules", graph.len());
+        assert_eq!(find_cycle(&graph), None, "{krate}: files whose modules import each other in a circle");
+    }
+}
+
+/// The file-level checker on sources with known answers: `super::`, `super::super::`, `self::`, `crate::` and
+/// groups resolve to modules; a child naming its parent is not an edge; the circle of `isg/cpu.rs` and
+/// `isg/thin.rs` (before `isg/grid.rs`) is found.
+#[test]
+fn the_file_checker_sees_super_and_self_paths() {
+    let me: Vec<String> = ["passes", "shade", "isg", "cpu"].iter().map(|s| s.to_string()).collect();
+    let refs = path_refs(
+        "use super::thin::mark;\nlet g = super::super::none::X; self::inner::f(); use crate::{gpu::B, scene};",
+        &me,
+    );
+    let refs: Vec<String> = refs.iter().map(|r| r.join("::")).collect();
+    assert_eq!(
+        refs,
+        [
+            "passes::shade::isg::thin::mark",
+            "passes::shade::none::X",
+            "passes::shade::isg::cpu::inner::f",
+            "gpu::B",
+            "scene"
+        ]
+    );
+    let dir = std::env::temp_dir().join(format!("layering-{}", std::process::id()));
+    let isg = dir.join("passes/isg");
+    std::fs::create_dir_all(&isg).unwrap();
+    std::fs::write(dir.join("lib.rs"), "pub mod passes;").unwrap();
+    std::fs::write(dir.join("passes/mod.rs"), "pub mod isg;").unwrap();
+    std::fs::write(isg.join("mod.rs"), "pub mod cpu; pub mod thin; pub use cpu::Grid;").unwrap();
+    std::fs::write(isg.join("cpu.rs"), "use super::IsgOptions;\npub struct Grid; fn f() { super::thin::mark(); }")
+        .unwrap();
+    std::fs::write(isg.join("thin.rs"), "use super::cpu::Grid; // the circle\npub fn mark() {}").unwrap();
+    let graph = file_graph(&dir);
+    assert!(find_cycle(&graph).is_some(), "{graph:?}");
+    std::fs::write(isg.join("thin.rs"), "pub fn mark() {}\n// use super::cpu::Grid; a comment is no import").unwrap();
+    let graph = file_graph(&dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(find_cycle(&graph), None, "{graph:?}");
 }
 
 /// The checker itself, on sources with known answers (a test that cannot fail proves nothing).

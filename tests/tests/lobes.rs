@@ -632,7 +632,7 @@ fn phase_variants_stop_after_their_phase() {
 
 /// The paper's Fig. 13 (scene `spheres`: five balls with one exact blocker sphere each on a plane, one light, no
 /// environment), 40×30 against the sphere reference at 1024 spp (its noise included): `lobes` at its defaults is
-/// within the 3 % (measured 1.3 % net at 80×60, README), and the paper's cap lobe (`sharpen=1`, 4.7 %)
+/// within the 3 % (measured 1.3 % net at 80×60, docs/techniques/lobes.md), and the paper's cap lobe (`sharpen=1`, 4.7 %)
 /// is not, so the bound tells them apart.
 #[test]
 fn the_papers_five_spheres_are_within_three_percent() {

@@ -135,7 +135,7 @@ fn isg_twin_matches_cpu() {
 /// queries per evaluator (λ log-uniform in [1e-2, 1e5], as the CPU benchmark
 /// engine/math/benches/math.rs), timed by GPU timestamps, best of 11 dispatches, less the time of
 /// generating the queries alone. Two diagnostics of ours: table reads replaced by arithmetic (the
-/// cost of everything but the reads), and the vec4 entries read as 4 scalar floats. A measurement for the README, not a check (no timing is
+/// cost of everything but the reads), and the vec4 entries read as 4 scalar floats. A measurement for docs/techniques/isg.md, not a check (no timing is
 /// asserted): `cargo test -p engine-tests --test math_gpu_isg -- --ignored --nocapture`.
 #[test]
 #[ignore]

@@ -429,15 +429,17 @@ fn examples_gltf_is_the_writers_output() {
     assert!(a == b, "examples/arm.gltf drifted from demos::gltf_writer: `cargo run -p demos --bin write_gltf_example`");
 }
 
-/// The README's complete scene-file example parses (every key it shows exists, with the type it shows).
+/// The complete scene-file example of docs/scene-files.md parses (every key it shows exists, with the type it
+/// shows).
 #[test]
-fn readme_scene_example_parses() {
-    let readme = std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../README.md")).unwrap();
-    let start = readme.find("**A complete scene file**").expect("the README's scene-file example");
+fn documented_scene_example_parses() {
+    let readme =
+        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/scene-files.md")).unwrap();
+    let start = readme.find("**A complete scene file**").expect("the scene-file example of docs/scene-files.md");
     let block = &readme[start..];
     let open = block.find("```toml\n").expect("a toml block") + "```toml\n".len();
     let text = &block[open..open + block[open..].find("```").unwrap()];
-    let spec = user::parse_scene_file(text).unwrap_or_else(|e| panic!("README example: {e}"));
+    let spec = user::parse_scene_file(text).unwrap_or_else(|e| panic!("docs/scene-files.md example: {e}"));
     assert_eq!((spec.model.len(), spec.light.len()), (1, 1));
     assert_eq!(spec.environment.and_then(|e| e.rotation), Some(120.0));
 }
@@ -530,7 +532,7 @@ fn material_maps_blend_lafortune_per_vertex() {
     assert!(e.contains("model[0].material_map needs model[0].material"), "{e}");
 }
 
-/// `examples/lights/{1,2,4}.toml` (README: "Speed", cost against lights): the same bunny scene with 1, 2
+/// `examples/lights/{1,2,4}.toml` (docs/measuring.md: "Speed", cost against lights): the same bunny scene with 1, 2
 /// and 4 spherical lights, the first two `lamp`'s, and its 64 shipped spheres.
 #[test]
 fn lights_examples_differ_only_in_their_lights() {

@@ -50,6 +50,7 @@ struct Args {
 }
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

@@ -87,6 +87,7 @@ struct Args {
 }
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 
@@ -124,20 +125,7 @@ fn run() -> Result<()> {
     }
     let gpu = Gpu::new(&GpuDesc::default())?;
     if let Some(t) = args.time {
-        if !t.is_finite() || t < 0.0 {
-            bail!("--time {t}: a finite time ≥ 0");
-        }
-        let entry = demos::scenes::find(&args.scene)?;
-        if let Some(a) = demos::Animation::for_entry(entry, &scene) {
-            let pose = a.pose(t);
-            for (i, m) in pose.transforms {
-                scene.instances[i].transform = m;
-            }
-            if let Some(b) = pose.bones {
-                scene.blockers.bones = b;
-            }
-        }
-        scene = demos::scenes::cloth::frozen_at(&gpu, &scene, t)?;
+        scene = measure::freeze_at(&gpu, &args.scene, scene, t).with_context(|| format!("--time {t}"))?;
     }
     let result = measure(&gpu, &scene, &args, &visibilities);
     gpu.shutdown()?;
@@ -193,39 +181,28 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             max_spp: args.max_spp,
             samples_per_frame: 16,
         };
-        let cache = args.reference_cache.as_ref().map(|dir| {
-            let key = format!(
-                "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}{}",
-                args.scene,
-                args.env,
-                w,
-                h,
-                args.gloss,
-                args.ks,
-                args.spheres,
-                args.fraction,
-                args.max_spp,
-                args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
-            ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" }
-                + &args.time.map(|t| format!("|time={}", t.to_bits())).unwrap_or_default();
-            let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
-            dir.join(format!("{}-{vis_name}-{hash:016x}.refimg", args.scene))
-        });
-        let cached = cache.as_ref().filter(|p| p.exists()).map(|p| {
-            eprintln!("reference from the cache {}", p.display());
-            measure::ReferenceImage::load(p, *vis, (w * h) as usize)
-        });
-        let r = match cached {
-            Some(r) => r?,
-            None => {
-                let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
-                if let Some(p) = &cache {
-                    std::fs::create_dir_all(p.parent().unwrap())?;
-                    r.save(p)?;
-                }
-                r
-            }
-        };
+        let key = format!(
+            "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}{}",
+            args.scene,
+            args.env,
+            w,
+            h,
+            args.gloss,
+            args.ks,
+            args.spheres,
+            args.fraction,
+            args.max_spp,
+            args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
+        ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" }
+            + &args.time.map(|t| format!("|time={}", t.to_bits())).unwrap_or_default();
+        let r = measure::cached_reference(
+            args.reference_cache.as_deref(),
+            &args.scene,
+            &key,
+            *vis,
+            (w * h) as usize,
+            || measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against),
+        )?;
         println!(
             "reference ({vis_name}): {} spp in {:.0} s, relative standard error {:.3} % ({}converged), {:.1} ms per sample per pixel-frame",
             r.report.samples,

@@ -4,9 +4,22 @@
 //! (paper Eq. 39) could gain: the calibration rows binned by octaves of the receiver's distance to the light
 //! and to the blocker (in their radii), each bin fitted on its own.
 
+use clap::Parser;
 use engine::passes::shade::lobes::fit;
 
+#[derive(Parser, Debug)]
+#[command(name = "lobes_weights", about = "Fit the lobes light leaf weights into assets/tables/lobes_weights.txt")]
+struct Args {
+    /// Compare the stored table with today's fit instead of writing it.
+    #[arg(long, conflicts_with = "by_distance")]
+    check: bool,
+    /// Report what distance-dependent weights w(depth, dist) could gain.
+    #[arg(long)]
+    by_distance: bool,
+}
+
 fn main() {
+    demos::init_logging();
     if let Err(e) = run() {
         eprintln!("error: {e}");
         std::process::exit(1);
@@ -14,19 +27,10 @@ fn main() {
 }
 
 fn run() -> Result<(), String> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    const USAGE: &str = "usage: lobes_weights [--check | --by-distance]   (fit the lobes light leaf weights; --check \
-                         compares with the table; --by-distance reports what distance-dependent weights could gain)";
-    let check = match args.as_slice() {
-        [] => false,
-        [a] if a == "--check" => true,
-        [a] if a == "--by-distance" => return by_distance(),
-        [a] if a == "-h" || a == "--help" => {
-            println!("{USAGE}");
-            return Ok(());
-        }
-        other => return Err(format!("unexpected arguments {other:?} ({USAGE})")),
-    };
+    let Args { check, by_distance: distance } = Args::parse();
+    if distance {
+        return by_distance();
+    }
     let dir = engine::tables::default_dir();
     eprintln!(
         "fitting the lobes light weights ({} set-ups, {}x{} receivers each)...",

@@ -13,27 +13,36 @@ struct Args {
     /// Sweep config (JSON; named sweeps). Default: tools/report/sweep.json.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Sweep to run.
+    /// Sweep to run (`readme` writes the results page docs/results/ and the README's summary).
     #[arg(long, default_value = "full")]
     sweep: String,
     /// Run the `tiny` sweep (tiny sizes, few samples: seconds).
     #[arg(long)]
     tiny: bool,
-    #[arg(long, default_value = "out/report")]
-    out: PathBuf,
+    /// Output folder (default: the sweep's site folder, e.g. docs/results, else out/report).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 
 fn run() -> Result<()> {
     let args = Args::parse();
-    let config = args.config.unwrap_or_else(demos::report::default_config);
+    let config = args.config.clone().unwrap_or_else(demos::report::default_config);
     let name = if args.tiny { "tiny" } else { args.sweep.as_str() };
     let sweep = demos::report::load_sweep(&config, name)?;
+    let out = match (&args.out, &sweep.site) {
+        (Some(o), _) => o.clone(),
+        (None, Some(site)) => demos::report::workspace_root().join(&site.out),
+        (None, None) => PathBuf::from("out/report"),
+    };
+    // The command as `cargo xtask report` takes it (xtask passes its arguments through unchanged).
+    let command = std::iter::once("cargo xtask report".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>();
     let gpu = Gpu::new(&GpuDesc::default())?;
-    let result = demos::report::run(&gpu, &sweep, &args.out);
+    let result = demos::report::run(&gpu, &sweep, &out, &command.join(" "));
     gpu.shutdown()?;
     result.map(|_| ())
 }

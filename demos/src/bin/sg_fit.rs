@@ -33,6 +33,7 @@ const ROWS: [usize; 8] = [1, 2, 4, 8, 10, 16, 20, 32];
 const REFINE_ROUNDS: usize = engine::passes::shade::isg::REFINE_ROUNDS;
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

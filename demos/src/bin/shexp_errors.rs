@@ -206,6 +206,7 @@ fn rel_rmse(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
 const STAGES: [&str; 6] = ["lighting L_n", "+ visibility truncation", "+ log space", "+ HYB", "+ OL", "+ PS*-2"];
 
 fn main() {
+    demos::init_logging();
     if let Err(e) = run() {
         eprintln!("error: {e:#}");
         std::process::exit(1);

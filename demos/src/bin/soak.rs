@@ -30,6 +30,7 @@ struct Args {
 }
 
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 

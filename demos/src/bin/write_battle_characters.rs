@@ -3,18 +3,25 @@
 //! `battle_characters_are_the_generators_output` (demos/tests/battle.rs) checks the shipped files against it.
 
 use anyhow::Context;
+use clap::Parser;
 use demos::characters::{troll, wizard, RINGS};
 use demos::gltf_writer::Container;
 use std::path::PathBuf;
 
+#[derive(Parser, Debug)]
+#[command(name = "write_battle_characters", about = "Write the battle scene's troll and wizard as .glb files")]
+struct Args {
+    /// Output folder (default: assets/battle).
+    dir: Option<PathBuf>,
+}
+
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 
 fn run() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    anyhow::ensure!(args.len() <= 1, "usage: write_battle_characters [DIR]");
-    let dir = args.first().map(PathBuf::from).unwrap_or_else(|| demos::assets_dir().join("battle"));
+    let dir = Args::parse().dir.unwrap_or_else(|| demos::assets_dir().join("battle"));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     for c in [troll(RINGS), wizard(RINGS)] {
         let path = dir.join(format!("{}.glb", c.name));

@@ -3,19 +3,28 @@
 //! examples/arm.gltf). The test `examples_gltf_is_the_writers_output` checks the shipped file against it.
 
 use anyhow::Context;
+use clap::Parser;
 use demos::gltf_writer::{example_arm, Container};
 use std::path::PathBuf;
 
+#[derive(Parser, Debug)]
+#[command(name = "write_gltf_example", about = "Write the two-bone arm example (demos::gltf_writer) as glTF")]
+struct Args {
+    /// Write the buffer as an external .bin beside a .gltf (instead of embedded).
+    #[arg(long)]
+    external: bool,
+    /// Output file, .gltf or .glb.
+    #[arg(default_value = "examples/arm.gltf")]
+    path: PathBuf,
+}
+
 fn main() {
+    demos::init_logging();
     demos::exit_on_error(run());
 }
 
 fn run() -> anyhow::Result<()> {
-    let mut args: Vec<String> = std::env::args().skip(1).collect();
-    let external = args.iter().any(|a| a == "--external");
-    args.retain(|a| a != "--external");
-    anyhow::ensure!(args.len() <= 1, "usage: write_gltf_example [--external] [PATH.gltf|PATH.glb]");
-    let path = args.pop().map(PathBuf::from).unwrap_or_else(|| "examples/arm.gltf".into());
+    let Args { external, path } = Args::parse();
     let glb = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
     let container = match (glb, external) {
         (true, true) => anyhow::bail!("--external applies to .gltf"),

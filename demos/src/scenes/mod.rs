@@ -298,7 +298,7 @@ impl clap::builder::TypedValueParser for SceneParser {
         Some(Box::new(SCENES.iter().map(|s| clap::builder::PossibleValue::new(s.name).help(s.summary)).chain(
             std::iter::once(clap::builder::PossibleValue::new("FILE").help(
                 "a .gltf, .glb or .obj model (framed on a ground plane, spheres fitted and cached; --animate plays \
-                     its clips) or a .toml scene description (README: Your own scenes)",
+                     its clips) or a .toml scene description (docs/scene-files.md)",
             )),
         )))
     }

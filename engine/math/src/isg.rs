@@ -1,4 +1,4 @@
-//! Integral spherical Gaussian (ISG): Iwasaki et al. 2012, Sec. 4, with the frame of DESIGN.md §3.
+//! Integral spherical Gaussian (ISG): Iwasaki et al. 2012, Sec. 4, with the frame of docs/design.md §3.
 //!
 //! Local frame with the SG axis z: `Ω(θ, φ) = (sin θ cos φ, cos θ, sin θ sin φ)`; θ from +y, φ the
 //! rotation about y from the xy plane. The axis is Ω(π/2, π/2), the centre of the domain [0, π]²,

@@ -1,7 +1,7 @@
 //! `engine::math`: the mathematics of the three techniques, in f64, with no Vulkan.
 //!
 //! Every GLSL function in `shaders-glsl/common` has its twin here and a GPU-vs-CPU test.
-//! The formulas follow DESIGN.md §3 (which restores the symbols the paper texts lost).
+//! The formulas follow docs/design.md §3 (which restores the symbols the paper texts lost).
 
 pub mod brdf;
 pub mod env_lights;

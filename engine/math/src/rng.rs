@@ -1,7 +1,8 @@
 //! Seeded, deterministic random numbers for tests, fitting and Monte Carlo.
 //!
 //! PCG32 (O'Neill 2014, XSH-RR variant): small, fast, reproducible across platforms.
-//! The GLSL side uses the same generator (`shaders-glsl/common/rng.glsl`).
+//! The shaders do not use it: the GPU reference (shaders-glsl/shade/reference/integrate.glsl) hashes its seeds
+//! with its own 32-bit PCG hash (Jarzynski & Olano 2020), which no CPU code needs to reproduce.
 
 /// A PCG32 generator: 64-bit state, 32-bit output.
 #[derive(Clone, Debug)]

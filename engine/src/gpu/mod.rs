@@ -47,6 +47,13 @@ pub enum GpuError {
     Binding { pipeline: String, message: String },
     #[error("{0}")]
     Other(String),
+    /// A technique spec or its options do not parse (an input error that reached a GPU-side call such as
+    /// `Renderer::new`; it names the technique or the key and what it accepts).
+    #[error(transparent)]
+    Option(#[from] crate::options::OptionError),
+    /// The scene (or a change to it) is refused at upload: names what is wrong.
+    #[error(transparent)]
+    Scene(#[from] crate::input::SceneInputError),
     /// A submission did not finish within the fence timeout ([`Gpu::fence_timeout`]).
     #[error("GPU submission did not finish within {seconds} s: {submission} ({FENCE_TIMEOUT_ENV} sets the limit)")]
     Timeout { submission: String, seconds: f64 },

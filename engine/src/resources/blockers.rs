@@ -3,7 +3,8 @@
 //! limits. Written by the `blocker_spheres` and `blocker_bvh` passes every frame. Plane blockers
 //! ([`GpuBlockerPlane`], world space, static) are gathered here too.
 
-use crate::gpu::{GpuError, Result};
+use super::invalid_scene;
+use crate::gpu::Result;
 use crate::scene::blockers::{bind_sphere_to_bones, BlockerPlane};
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
@@ -90,7 +91,7 @@ pub fn gather_planes(scene: &Scene) -> Result<Vec<BlockerPlane>> {
     let b = &scene.blockers;
     let mut planes = Vec::new();
     for (k, pl) in b.planes.iter().enumerate() {
-        pl.validate().map_err(|e| GpuError::Other(format!("plane blocker {k}: {e}")))?;
+        pl.validate().map_err(|e| invalid_scene(format!("plane blocker {k}: {e}")))?;
         planes.push(*pl);
     }
     for (i, inst) in scene.instances.iter().enumerate() {
@@ -98,10 +99,10 @@ pub fn gather_planes(scene: &Scene) -> Result<Vec<BlockerPlane>> {
             continue;
         }
         let Some(mesh) = scene.meshes.get(inst.mesh) else {
-            return Err(GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)));
+            return Err(invalid_scene(format!("instance {i}: no mesh {}", inst.mesh)));
         };
         if b.spheres_of(inst.mesh).is_some() || b.is_thin(inst.mesh) {
-            return Err(GpuError::Other(format!(
+            return Err(invalid_scene(format!(
                 "mesh '{}' is marked as a plane blocker and also has spheres or is thin: choose one",
                 mesh.name
             )));
@@ -109,11 +110,11 @@ pub fn gather_planes(scene: &Scene) -> Result<Vec<BlockerPlane>> {
         let m = inst.transform.as_dmat4();
         let world: Vec<glam::DVec3> = mesh.positions.iter().map(|p| m.transform_point3(p.as_dvec3())).collect();
         let pl = BlockerPlane::from_flat_mesh(&world, &mesh.indices)
-            .map_err(|e| GpuError::Other(format!("mesh '{}' (instance {i}): {e}", mesh.name)))?;
+            .map_err(|e| invalid_scene(format!("mesh '{}' (instance {i}): {e}", mesh.name)))?;
         planes.push(pl);
     }
     if planes.len() > MAX_PLANES {
-        return Err(GpuError::Other(format!("{} plane blockers, at most {MAX_PLANES}", planes.len())));
+        return Err(invalid_scene(format!("{} plane blockers, at most {MAX_PLANES}", planes.len())));
     }
     Ok(planes)
 }
@@ -135,7 +136,7 @@ pub fn planes_buffer_words(planes: &[BlockerPlane]) -> Vec<u32> {
 /// rest grid in object space, on its instance. The `cloth` pass overwrites their world spheres every frame
 /// (`engine::passes::cloth`); the records only keep the `blocker_spheres` pass's writes meaningful.
 fn cloth_sphere_records(scene: &Scene, cloth: &crate::scene::cloth::Cloth) -> Result<Vec<GpuBlockerSphere>> {
-    let (instance, _) = crate::scene::cloth::cloth_instance(scene, cloth).map_err(GpuError::Other)?;
+    let (instance, _) = crate::scene::cloth::cloth_instance(scene, cloth).map_err(invalid_scene)?;
     let mesh = &scene.meshes[cloth.mesh];
     let x: Vec<glam::DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     let (across, down) = cloth.sphere_grid();
@@ -174,12 +175,12 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
     let mut vertex_skins = Vec::new();
     for (i, inst) in scene.instances.iter().enumerate() {
         let Some(mesh) = scene.meshes.get(inst.mesh) else {
-            return Err(GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)));
+            return Err(invalid_scene(format!("instance {i}: no mesh {}", inst.mesh)));
         };
         let skin = b.skin_of(inst.mesh);
         if let Some(skin) = skin {
             if skin.joints.len() != mesh.positions.len() || skin.weights.len() != mesh.positions.len() {
-                return Err(GpuError::Other(format!(
+                return Err(invalid_scene(format!(
                     "mesh '{}': skin has {} joints / {} weights for {} vertices",
                     mesh.name,
                     skin.joints.len(),
@@ -188,10 +189,10 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
                 )));
             }
             if let Some(j) = skin.joints.iter().flatten().find(|&&j| j >= bone_count) {
-                return Err(GpuError::Other(format!("mesh '{}': bone {j} of {bone_count}", mesh.name)));
+                return Err(invalid_scene(format!("mesh '{}': bone {j} of {bone_count}", mesh.name)));
             }
             if skin.weights.iter().flatten().any(|w| !w.is_finite() || *w < 0.0) {
-                return Err(GpuError::Other(format!("mesh '{}': negative or non-finite skin weight", mesh.name)));
+                return Err(invalid_scene(format!("mesh '{}': negative or non-finite skin weight", mesh.name)));
             }
             vertex_skins.extend(
                 skin.joints.iter().zip(&skin.weights).map(|(&joints, &weights)| GpuVertexSkin { joints, weights }),
@@ -200,7 +201,7 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
             vertex_skins.extend(std::iter::repeat_n(GpuVertexSkin::default(), mesh.positions.len()));
         }
         for (k, s) in b.spheres_of(inst.mesh).unwrap_or(&[]).iter().enumerate() {
-            s.validate(k).map_err(|e| GpuError::Other(format!("mesh '{}': {e}", mesh.name)))?;
+            s.validate(k).map_err(|e| invalid_scene(format!("mesh '{}': {e}", mesh.name)))?;
             let (joints, weights) = match skin {
                 Some(skin) => bind_sphere_to_bones(s, &mesh.positions, skin),
                 None => ([0; 4], [0.0; 4]),
@@ -219,7 +220,7 @@ pub fn gather(scene: &Scene) -> Result<BlockerData> {
         rest.extend(cloth_sphere_records(scene, cloth)?);
     }
     if rest.len() > MAX_SPHERES as usize {
-        return Err(GpuError::Other(format!("{} blocker spheres, at most {}", rest.len(), MAX_SPHERES)));
+        return Err(invalid_scene(format!("{} blocker spheres, at most {}", rest.len(), MAX_SPHERES)));
     }
     let planes = gather_planes(scene)?;
     Ok(BlockerData { rest, vertex_skins, bones: b.bones.iter().map(|m| m.to_cols_array()).collect(), planes })

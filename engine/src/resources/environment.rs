@@ -63,7 +63,7 @@ impl EnvironmentResources {
     /// operation (the textures and grids are uploaded anew).
     pub fn rotated(&self, gpu: &Gpu, degrees: f32) -> Result<Self> {
         if !degrees.is_finite() {
-            return Err(crate::gpu::GpuError::Other(format!("environment rotation {degrees}° is not finite")));
+            return Err(super::invalid_scene(format!("environment rotation {degrees}° is not finite")));
         }
         Self::build(gpu, self.base.clone(), degrees)
     }

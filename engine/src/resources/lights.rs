@@ -1,7 +1,8 @@
 //! The scene's spherical lights in device memory, shared by every technique: one buffer
 //! `Lights { uint count; SphereLight lights[]; }` (shaders-glsl/shade/lights.glsl), validated once.
 
-use crate::gpu::{Buffer, BufferDesc, Gpu, GpuError, Result};
+use super::invalid_scene;
+use crate::gpu::{Buffer, BufferDesc, Gpu, Result};
 use crate::scene::SphereLight;
 use bytemuck::{Pod, Zeroable};
 
@@ -40,13 +41,13 @@ pub fn gpu_lights(lights: &[SphereLight]) -> Result<Vec<GpuSphereLight>> {
         .enumerate()
         .map(|(i, l)| {
             if l.radius.is_nan() || l.radius <= 0.0 || !l.center.is_finite() || !l.radius.is_finite() {
-                return Err(GpuError::Other(format!(
+                return Err(invalid_scene(format!(
                     "light {i}: radius {} at {} is not a positive finite sphere",
                     l.radius, l.center
                 )));
             }
             if !l.radiance.is_finite() || l.radiance.min_element() < 0.0 {
-                return Err(GpuError::Other(format!("light {i}: radiance {} is negative or not finite", l.radiance)));
+                return Err(invalid_scene(format!("light {i}: radiance {} is negative or not finite", l.radiance)));
             }
             Ok(GpuSphereLight {
                 center: l.center.to_array(),

@@ -21,6 +21,11 @@ use layout::{FrameData, GpuMaterial, GpuObject, GpuVertex};
 pub use lights::LightResources;
 use thin::{GpuThinCluster, GpuThinTriangle};
 
+/// A scene refused at upload (an input error, not a GPU failure): [`crate::input::SceneInputError`].
+pub(crate) fn invalid_scene(message: impl Into<String>) -> GpuError {
+    crate::input::SceneInputError(message.into()).into()
+}
+
 /// Make `N` buffers in order; if one fails, the ones made before it are destroyed again.
 pub(crate) fn make_buffers<const N: usize>(gpu: &Gpu, steps: [&dyn Fn() -> Result<Buffer>; N]) -> Result<[Buffer; N]> {
     let mut made = Vec::with_capacity(N);
@@ -146,13 +151,13 @@ impl GpuScene {
             let mesh = scene
                 .meshes
                 .get(inst.mesh)
-                .ok_or_else(|| GpuError::Other(format!("instance {i}: no mesh {}", inst.mesh)))?;
+                .ok_or_else(|| invalid_scene(format!("instance {i}: no mesh {}", inst.mesh)))?;
             if inst.material >= scene.materials.len() {
-                return Err(GpuError::Other(format!("instance {i}: no material {}", inst.material)));
+                return Err(invalid_scene(format!("instance {i}: no material {}", inst.material)));
             }
             let offsets = &mesh.material_offsets;
             if !offsets.is_empty() && offsets.len() != mesh.positions.len() {
-                return Err(GpuError::Other(format!(
+                return Err(invalid_scene(format!(
                     "mesh '{}': {} material offsets for {} vertices",
                     mesh.name,
                     offsets.len(),
@@ -161,7 +166,7 @@ impl GpuScene {
             }
             let top = inst.material as u64 + offsets.iter().copied().max().unwrap_or(0) as u64;
             if top >= scene.materials.len() as u64 {
-                return Err(GpuError::Other(format!(
+                return Err(invalid_scene(format!(
                     "instance {i}: its mesh's material offsets reach material {top} of {}",
                     scene.materials.len()
                 )));
@@ -182,7 +187,7 @@ impl GpuScene {
             });
         }
         if vertices.is_empty() || indices.is_empty() {
-            return Err(GpuError::Other("the scene has no geometry".into()));
+            return Err(invalid_scene("the scene has no geometry"));
         }
         let materials: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::from_material).collect();
         let blocker_data = blockers::gather(scene)?;

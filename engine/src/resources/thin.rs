@@ -3,7 +3,8 @@
 //! [`CLUSTER_SIZE`] triangles. The `thin_shells` pass rewrites their world-space vertices and bounds
 //! every frame.
 
-use crate::gpu::{GpuError, Result};
+use super::invalid_scene;
+use crate::gpu::Result;
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -47,14 +48,14 @@ pub fn gather(scene: &Scene) -> Result<ThinData> {
     let mut out = Vec::new();
     let mut base = 0u32;
     for (i, inst) in scene.instances.iter().enumerate() {
-        let mesh = scene.meshes.get(inst.mesh).ok_or_else(|| GpuError::Other(format!("instance {i}: no mesh")))?;
+        let mesh = scene.meshes.get(inst.mesh).ok_or_else(|| invalid_scene(format!("instance {i}: no mesh")))?;
         let vertex_base = base;
         base += mesh.positions.len() as u32;
         if !scene.blockers.is_thin(inst.mesh) {
             continue;
         }
         if scene.blockers.spheres_of(inst.mesh).is_some() {
-            return Err(GpuError::Other(format!(
+            return Err(invalid_scene(format!(
                 "mesh '{}' is marked thin and has a sphere set: a thin mesh's triangles are its blockers",
                 mesh.name
             )));

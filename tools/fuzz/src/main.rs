@@ -7,37 +7,46 @@ use std::time::Duration;
 #[global_allocator]
 static ALLOC: CountingAlloc = CountingAlloc;
 
-const USAGE: &str =
-    "usage: fuzz TARGET|all [--runs N (default 1000000)] [--seconds S] [--seed K] [--dir D (default out/fuzz)]";
+/// Mutation-fuzz one loader of the engine, or all of them.
+#[derive(clap::Parser, Debug)]
+#[command(name = "fuzz", after_help = targets_help())]
+struct Args {
+    /// A target (see below) or `all`.
+    target: String,
+    /// Executions per target.
+    #[arg(long, default_value_t = 1_000_000)]
+    runs: u64,
+    /// Stop each target after this many seconds (> 0).
+    #[arg(long, value_parser = seconds)]
+    seconds: Option<Duration>,
+    /// Seed of the mutations.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Where findings and the input being run are saved.
+    #[arg(long, default_value = "out/fuzz")]
+    dir: std::path::PathBuf,
+}
+
+fn targets_help() -> String {
+    let names: Vec<&str> = TARGETS.iter().map(|t| t.name).collect();
+    format!("targets: {}", names.join(", "))
+}
+
+fn seconds(s: &str) -> Result<Duration, String> {
+    let v: f64 = s.parse().map_err(|_| format!("'{s}' is not a number of seconds"))?;
+    if !v.is_finite() || v <= 0.0 {
+        return Err(format!("{v}: must be a finite number of seconds > 0"));
+    }
+    Ok(Duration::from_secs_f64(v))
+}
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.is_empty() || args.iter().any(|a| a == "--help" || a == "-h") {
-        let names: Vec<&str> = TARGETS.iter().map(|t| t.name).collect();
-        println!("{USAGE}\ntargets: {}", names.join(", "));
-        return;
-    }
-    let (mut runs, mut seconds, mut seed, mut dir) = (1_000_000u64, None, 1u64, std::path::PathBuf::from("out/fuzz"));
-    let mut it = args[1..].iter();
-    while let Some(a) = it.next() {
-        let v = it.next().unwrap_or_else(|| fail(&format!("{a} needs a value")));
-        match a.as_str() {
-            "--runs" => runs = v.parse().unwrap_or_else(|_| fail("--runs: not a count")),
-            "--seconds" => {
-                let s: f64 = v.parse().unwrap_or_else(|_| fail("--seconds: not a number"));
-                if !s.is_finite() || s <= 0.0 {
-                    fail("--seconds: must be > 0");
-                }
-                seconds = Some(Duration::from_secs_f64(s));
-            }
-            "--seed" => seed = v.parse().unwrap_or_else(|_| fail("--seed: not a number")),
-            "--dir" => dir = v.into(),
-            _ => fail(&format!("unknown option {a}")),
-        }
-    }
-    let chosen: Vec<_> = match args[0].as_str() {
+    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let Args { target: name, runs, seconds, seed, dir } = <Args as clap::Parser>::parse();
+    let chosen: Vec<_> = match name.as_str() {
         "all" => TARGETS.iter().collect(),
-        name => vec![target(name).unwrap_or_else(|| fail(&format!("unknown target '{name}'")))],
+        name => vec![target(name).unwrap_or_else(|| fail(&format!("unknown target '{name}' ({})", targets_help())))],
     };
     let mut found = 0;
     for t in chosen {
@@ -66,6 +75,6 @@ fn main() {
 }
 
 fn fail(message: &str) -> ! {
-    eprintln!("fuzz: {message}\n{USAGE}");
+    eprintln!("fuzz: {message}");
     std::process::exit(2)
 }

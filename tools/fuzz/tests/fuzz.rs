@@ -86,3 +86,19 @@ fn quietly_contained_panics_are_counted() {
     assert!(o.contained_panics >= 1, "{}: the contained panic was not counted: {o:?}", path.display());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The command line is clap's: a malformed value is a usage error (exit 2) naming the option and the value.
+#[test]
+fn command_line_errors_name_the_option() {
+    let run = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_fuzz")).args(args).output().unwrap();
+    let o = run(&["obj", "--runs", "abc"]);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("invalid value 'abc' for '--runs <RUNS>'"), "{err}");
+    let o = run(&["obj", "--seconds", "0"]);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("'--seconds <SECONDS>'") && err.contains("> 0"), "{err}");
+    let o = run(&["--help"]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("targets: obj"));
+}

@@ -21,6 +21,26 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+#[derive(clap::Parser, Debug)]
+#[command(
+    name = "report-math",
+    about = "The mathematics report: ISG evaluators, SH exponentials, cosine-lobe products"
+)]
+struct Cli {
+    /// Output folder (default: out/report/math of the workspace).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Random blocker sets per SH-exponential point.
+    #[arg(long, default_value_t = 10000)]
+    scenes: usize,
+    /// Exponent samples per decade of the cosine-lobe product error (16, as the table).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u64).range(1..))]
+    product_per_decade: u64,
+    /// A quick run: 200 scenes, 2 samples per decade, 2000 table lookups.
+    #[arg(long)]
+    quick: bool,
+}
+
 struct Args {
     out: PathBuf,
     scenes: usize,
@@ -28,35 +48,15 @@ struct Args {
     lookups: usize,
 }
 
-fn parse() -> Result<Args, String> {
+fn parse() -> Args {
+    let cli = <Cli as clap::Parser>::parse();
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let mut a = Args { out: root.join("out/report/math"), scenes: 10000, product_per_decade: 16, lookups: 20000 };
-    let mut it = std::env::args().skip(1);
-    while let Some(arg) = it.next() {
-        let mut value = |name: &str| it.next().ok_or(format!("{name} needs a value"));
-        let num = |s: String, name: &str| s.parse::<usize>().map_err(|e| format!("{name}: {e}"));
-        match arg.as_str() {
-            "--out" => a.out = PathBuf::from(value("--out")?),
-            "--scenes" => a.scenes = num(value("--scenes")?, "--scenes")?,
-            "--product-per-decade" => {
-                a.product_per_decade = num(value("--product-per-decade")?, "--product-per-decade")?.max(1)
-            }
-            "--quick" => {
-                a.scenes = 200;
-                a.product_per_decade = 2;
-                a.lookups = 2000;
-            }
-            "-h" | "--help" => {
-                println!(
-                    "report-math [--out DIR] [--scenes N (10000)] [--product-per-decade N (16, as the table)] \
-                     [--quick]"
-                );
-                std::process::exit(0)
-            }
-            other => return Err(format!("unknown argument '{other}' (see --help)")),
-        }
+    let out = cli.out.unwrap_or_else(|| root.join("out/report/math"));
+    if cli.quick {
+        Args { out, scenes: 200, product_per_decade: 2, lookups: 2000 }
+    } else {
+        Args { out, scenes: cli.scenes, product_per_decade: cli.product_per_decade as usize, lookups: 20000 }
     }
-    Ok(a)
 }
 
 fn tables_dir() -> PathBuf {
@@ -78,13 +78,9 @@ fn sci(v: f64) -> String {
 }
 
 fn main() {
-    let args = match parse() {
-        Ok(a) => a,
-        Err(e) => {
-            eprintln!("report-math: {e}");
-            std::process::exit(2)
-        }
-    };
+    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let args = parse();
     if let Err(e) = run(&args) {
         eprintln!("report-math: {e}");
         std::process::exit(1)

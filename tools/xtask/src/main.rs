@@ -1,7 +1,7 @@
 //! `cargo xtask`: set-up, demo, test, bless, spheres, tables, report, bench.
 //!
 //! Set-up installs what a fresh Debian/Ubuntu machine lacks (Vulkan loader, lavapipe, shaderc,
-//! validation layers, Xvfb and xwd for the window test) with apt when root; otherwise it prints the command and fails.
+//! validation layers, Xvfb and xwd for the window test, Chromium for the results page's test) with apt when root; otherwise it prints the command and fails.
 //! This crate depends on nothing native, so it builds before those packages exist.
 
 use anyhow::{bail, Context, Result};
@@ -23,6 +23,8 @@ const APT_PACKAGES: &[&str] = &[
     "vulkan-validationlayers",
     "xvfb",
     "x11-apps",
+    // The results page's browser test (tools/xtask/tests/results_page.rs) drives it headless.
+    "chromium",
 ];
 
 pub(crate) fn root() -> PathBuf {
@@ -53,6 +55,8 @@ fn usage_error(message: &str) -> ! {
 }
 
 fn main() {
+    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(cmd) = args.first() else { usage_error("no command given") };
     let rest = &args[1..];

@@ -1,7 +1,7 @@
 //! Real spherical harmonics: basis, projection, triple-product tensor, products, zonal rotation,
 //! circle (sphere-blocker) visibility and its log (SHEXP paper, Ren et al. 2006, Sec. 3, 5, 6.1, 7).
 //!
-//! Conventions (DESIGN.md §3):
+//! Conventions (docs/design.md §3):
 //! - Real, orthonormal basis; order `n` means bands `l = 0..n-1`, `n²` coefficients, index
 //!   `i = l² + l + m`. The polar axis of the basis is +z (`cos θ = z`, `φ = atan2(y, x)`); this is a
 //!   choice of basis only: every operation here is rotation-covariant, and directions follow the

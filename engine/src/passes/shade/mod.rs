@@ -1,11 +1,11 @@
-//! Shading passes behind the technique interface (DESIGN.md §2): every technique reads a named set of
+//! Shading passes behind the technique interface (docs/design.md §2): every technique reads a named set of
 //! shared scene resources ([`ShadeInputs`]: frame, materials, environment, and the lights, blockers,
 //! thin shells or geometry it names in [`Reads`]) and writes one radiance target, per pixel or per
 //! vertex, from the same GLSL `shade_point`.
 //!
 //! **Adding a technique** = one entry in [`TECHNIQUES`] (its `mod` line and its [`TechniqueEntry`]),
 //! one Rust file here and one shader folder `shaders-glsl/shade/<name>/` with `pixel.comp` and
-//! `vertex.comp`. `--help`, the viewer's technique cycle, the report sweep's validation, the README's
+//! `vertex.comp`. `--help`, the viewer's technique cycle, the report sweep's validation, the docs'
 //! option tables and the parameterized tests (tests/tests/techniques.rs) all read the registry.
 
 pub mod isg;
@@ -15,7 +15,7 @@ pub mod reference;
 pub mod shexp;
 
 use crate::gpu::{Binding, Buffer, ComputePipeline, Gpu, GpuError, Image, Recorder, Result};
-use crate::options::{self, OptionSpec, Options};
+use crate::options::{self, OptionError, OptionSpec, Options};
 use crate::passes::gbuffer::GBuffer;
 use crate::resources::{BlockerResources, EnvironmentResources, Geometry, GpuScene, LightResources, ThinResources};
 
@@ -25,7 +25,7 @@ pub static TECHNIQUES: &[TechniqueEntry] = &[isg::ENTRY, lobes::ENTRY, none::ENT
 /// One registered technique.
 pub struct TechniqueEntry {
     pub name: &'static str,
-    /// One line for `--help` and the README.
+    /// One line for `--help` and the docs.
     pub summary: &'static str,
     /// Its options (`--technique name:key=value,...`).
     pub options: &'static [OptionSpec],
@@ -99,11 +99,11 @@ pub fn wants_env_lights(options: &Options) -> bool {
     options.get("env_lights") == Some(options::Value::Choice("on"))
 }
 
-/// The registry entry of `name`.
-pub fn technique_entry(name: &str) -> Result<&'static TechniqueEntry> {
+/// The registry entry of `name` (an unknown name is an option error listing the registered ones).
+pub fn technique_entry(name: &str) -> std::result::Result<&'static TechniqueEntry, OptionError> {
     TECHNIQUES.iter().find(|t| t.name == name).ok_or_else(|| {
         let names: Vec<&str> = TECHNIQUES.iter().map(|t| t.name).collect();
-        GpuError::Other(format!("unknown technique '{}' (available: {})", engine_io::excerpt(name), names.join(", ")))
+        OptionError(format!("unknown technique '{}' (available: {})", engine_io::excerpt(name), names.join(", ")))
     })
 }
 
@@ -116,19 +116,19 @@ type OptionCheck = fn(&Options) -> std::result::Result<(), String>;
 
 /// Parse a technique spec `name[:key=value,...]` against the registry (no GPU needed): unknown names,
 /// unknown keys, out-of-range values and contradictory keys are errors naming them.
-pub fn parse_technique(spec: &str) -> Result<(&'static TechniqueEntry, Options)> {
-    let (name, pairs) = options::split_spec(spec).map_err(|e| GpuError::Other(format!("technique {e}")))?;
+pub fn parse_technique(spec: &str) -> std::result::Result<(&'static TechniqueEntry, Options), OptionError> {
+    let (name, pairs) = options::split_spec(spec).map_err(|e| OptionError(format!("technique {e}")))?;
     let entry = technique_entry(name)?;
-    let opts = options::parse(entry.name, entry.options, &pairs).map_err(|e| GpuError::Other(e.0))?;
+    let opts = options::parse(entry.name, entry.options, &pairs)?;
     for (_, check) in OPTION_CHECKS.iter().filter(|(n, _)| *n == entry.name) {
-        check(&opts).map_err(|e| GpuError::Other(format!("{}: {e}", entry.name)))?;
+        check(&opts).map_err(|e| OptionError(format!("{}: {e}", entry.name)))?;
     }
     Ok((entry, opts))
 }
 
 /// A spec with every option's effective value: `isg: diffuse=map, patches=32, ...` (the viewer's
 /// option display).
-pub fn describe_technique(spec: &str) -> Result<String> {
+pub fn describe_technique(spec: &str) -> std::result::Result<String, OptionError> {
     let (entry, opts) = parse_technique(spec)?;
     let values = opts.describe(entry.options, ", ");
     Ok(if values.is_empty() { entry.name.to_string() } else { format!("{}: {values}", entry.name) })
@@ -403,5 +403,57 @@ impl ComposePass {
     }
     pub fn destroy(self, gpu: &Gpu) {
         gpu.destroy_compute_pipeline(self.pipeline);
+    }
+}
+
+/// docs/technique-template/template.rs, compiled with the engine's tests against this registry's types, so that
+/// the template cannot rot (its shaders are compiled by the test below).
+#[cfg(test)]
+#[path = "../../../../docs/technique-template/template.rs"]
+mod template;
+
+#[cfg(test)]
+mod template_tests {
+    use super::template;
+    use crate::gpu::{ShaderCompiler, ShaderStage};
+    use std::path::{Path, PathBuf};
+
+    fn copy_dir(from: &Path, to: &Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for e in std::fs::read_dir(from).unwrap().flatten() {
+            let target = to.join(e.file_name());
+            if e.path().is_dir() {
+                copy_dir(&e.path(), &target);
+            } else {
+                std::fs::copy(e.path(), &target).unwrap();
+            }
+        }
+    }
+
+    /// The template's entry is a valid registry entry: its options parse at their defaults, under its name.
+    #[test]
+    fn template_entry_parses_its_defaults() {
+        assert_eq!(template::ENTRY.name, "template");
+        let o = crate::options::parse(template::ENTRY.name, template::ENTRY.options, &[]).expect("defaults");
+        assert_eq!(o.float("gain"), 1.0);
+        assert!(crate::options::parse("template", template::ENTRY.options, &[("gain".into(), "11".into())]).is_err());
+    }
+
+    /// The template's shaders compile (with shaderc, warnings as errors) when copied where its README says,
+    /// `shaders-glsl/shade/template/`, next to the real shared GLSL they include.
+    #[test]
+    fn template_shaders_compile_in_place() {
+        let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+        let tmp = std::env::temp_dir().join(format!("technique-template-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&tmp);
+        let root = tmp.join("shaders-glsl");
+        copy_dir(&repo.join("shaders-glsl"), &root);
+        copy_dir(&repo.join("docs/technique-template/shader"), &root.join("shade/template"));
+        let compiler = ShaderCompiler::new(root).expect("shaderc");
+        for target in ["pixel.comp", "vertex.comp"] {
+            let rel = format!("shade/template/{target}");
+            compiler.compile(&rel, ShaderStage::Compute, &[]).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
     }
 }

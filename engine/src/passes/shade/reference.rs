@@ -1,5 +1,5 @@
 //! Technique `reference` (shaders-glsl/shade/reference): the Monte Carlo ground truth of
-//! DESIGN.md §4. Per G-buffer pixel (or per vertex) it integrates environment × BRDF × visibility
+//! docs/design.md §4. Per G-buffer pixel (or per vertex) it integrates environment × BRDF × visibility
 //! plus the scene's spherical lights, with environment importance sampling (luminance × texel
 //! solid angle, marginal and conditional CDFs built here), light sampling (uniform in the cone a
 //! sphere subtends) and BRDF sampling (cosine / Blinn-Phong lobe), combined by the power heuristic.

@@ -11,49 +11,7 @@ use engine_math::sg::{sg_product_log, Sg, SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU}
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// The patch grid of one lobe (see isg_visibility.glsl).
-pub struct Grid {
-    pub x: DVec3,
-    pub y: DVec3,
-    pub z: DVec3,
-    pub lo: f64,
-    pub delta: f64,
-    pub side: usize,
-    pub cone: f64,
-}
-
-pub fn limiting_angle(lambda: f64, epsilon: f64) -> f64 {
-    let c = 1.0 + epsilon.ln() / lambda.max(1e-30);
-    if c <= 0.0 {
-        FRAC_PI_2
-    } else {
-        c.acos()
-    }
-}
-
-/// Duff et al. 2017 orthonormal basis (the same branch as the shader).
-pub fn basis(z: DVec3) -> (DVec3, DVec3) {
-    let s = if z.z >= 0.0 { 1.0 } else { -1.0 };
-    let a = -1.0 / (s + z.z);
-    let b = z.x * z.y * a;
-    (DVec3::new(1.0 + s * z.x * z.x * a, s * b, -s * z.x), DVec3::new(b, s + z.y * z.y * a, -z.y))
-}
-
-pub fn grid(axis: DVec3, lambda: f64, o: &IsgOptions) -> Grid {
-    let (x, y) = basis(axis);
-    let gamma = limiting_angle(lambda, o.epsilon);
-    let side = o.side.clamp(1, 32);
-    let c = gamma.cos();
-    Grid {
-        x,
-        y,
-        z: axis,
-        lo: FRAC_PI_2 - gamma,
-        delta: 2.0 * gamma / side as f64,
-        side,
-        cone: (c * c).clamp(0.0, 1.0).acos(),
-    }
-}
+pub use super::grid::{basis, grid, limiting_angle, Grid};
 
 /// Bits of row i's patches whose centre lies in the cap {ω : ω·u ≥ cos ψ}, u given in the grid's
 /// coordinates ([`cap_coords`]). Twin of `isg_cap_row_bits`.
@@ -508,6 +466,64 @@ mod tests {
     use engine_math::isg::IsgLut;
     use glam::DVec3;
     use std::f64::consts::PI;
+
+    /// A square at height y, two triangles (thin-shell tests).
+    fn square(y: f64, half: f64) -> Vec<[DVec3; 3]> {
+        let q = |x: f64, z: f64| DVec3::new(x * half, y, z * half);
+        vec![[q(-1.0, -1.0), q(1.0, -1.0), q(1.0, 1.0)], [q(-1.0, -1.0), q(1.0, 1.0), q(-1.0, 1.0)]]
+    }
+
+    /// Hard cases: the receiver's own and nearly coplanar triangles, degenerate and edge-on triangles,
+    /// triangles straddling the tangent plane, below it, around the receiver, huge: finite, between the
+    /// horizon's occlusion and the whole grid's, and ignored where the rule says so.
+    #[test]
+    fn hard_cases_are_finite_and_rule_abiding() {
+        let lut = IsgLut::generate_default();
+        // 16 × 16: one triangle under the self-shadowing rule cannot reach the corner patches of a finer grid
+        // (centres 0.14° above the horizon at P = 32).
+        let o = IsgOptions { side: 16, ..IsgOptions::default() };
+        let (p, n) = (DVec3::ZERO, DVec3::Y);
+        for lambda in [1e-4, 1.0, 100.0, 1e5] {
+            let (h, none) = occlusion(p, n, n, lambda, &o, &[], &lut);
+            // The receiver's own triangle and coplanar neighbours: nothing beyond the horizon.
+            let own = square(0.0, 0.5);
+            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &own, &lut), (h, none));
+            // Tilted by 1e-4 rad through the receiver: still within ε of its plane.
+            let tilt = [[DVec3::new(-1.0, -1e-4, 0.0), DVec3::new(1.0, 1e-4, -1.0), DVec3::new(1.0, 1e-4, 1.0)]];
+            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &tilt, &lut).1, none);
+            // Degenerate (zero-area, collinear, repeated vertices) and edge-on triangles.
+            let a = DVec3::new(0.0, 1.0, 0.0);
+            let degenerate = [
+                [a, a, a],
+                [a, a + DVec3::X, a + 2.0 * DVec3::X],
+                [a, a, a + DVec3::Z],
+                // Edge-on: its plane contains the receiver.
+                [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 2.0, 1.0), DVec3::new(0.0, 2.0, -1.0)],
+            ];
+            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &degenerate, &lut).1, none, "λ {lambda}");
+            // A sheet straddling the tangent plane, a sheet around the receiver (covers more than a
+            // hemisphere from below), one wholly below it, and a huge one: finite, within [horizon, whole].
+            let straddle = [[DVec3::new(0.5, -1.0, -1.0), DVec3::new(0.5, 1.0, -1.0), DVec3::new(0.5, 0.0, 1.0)]];
+            let around =
+                [[DVec3::new(-100.0, 0.5, -100.0), DVec3::new(100.0, 0.5, -100.0), DVec3::new(0.0, 0.5, 200.0)]];
+            let below = square(-1.0, 3.0);
+            let huge = square(1e-2, 5.0);
+            let g = grid(n, lambda, &o);
+            let whole = occluded_sum(&vec![vec![true; g.side]; g.side], &g, lambda, o.evaluator, &lut);
+            for (what, tris) in
+                [("straddle", &straddle[..]), ("around", &around[..]), ("below", &below[..]), ("huge", &huge[..])]
+            {
+                let (hh, v) = occlusion_with_thin(p, n, n, lambda, &o, &[], tris, &lut);
+                assert!(v.is_finite() && v >= hh && v <= whole * (1.0 + 1e-9), "{what} λ {lambda}: {v} of {whole}");
+            }
+            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &below, &lut).1, none, "below the plane");
+            let (_, around_v) = occlusion_with_thin(p, n, n, lambda, &o, &[], &around, &lut);
+            assert!(
+                (around_v - whole).abs() <= 1e-9 * whole,
+                "λ {lambda}: a sheet over everything: {around_v} of {whole}"
+            );
+        }
+    }
 
     #[test]
     fn limiting_angle_bounds_the_lobe() {

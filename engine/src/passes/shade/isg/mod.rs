@@ -34,6 +34,7 @@ use engine_math::sg::{SgRgb, COSINE_SG_LAMBDA, COSINE_SG_MU};
 use engine_math::table_gen::MathTable;
 
 pub mod cpu;
+pub mod grid;
 pub mod options;
 pub mod thin;
 

@@ -63,7 +63,7 @@ impl Default for IsgOptions {
 /// Coordinate-descent rounds refining the greedy environment fit (engine-math `refine_envmap_sgs`).
 pub const REFINE_ROUNDS: usize = 6;
 
-/// The schema of `isg`'s options (also `--help`, the viewer, the report sweep and the README).
+/// The schema of `isg`'s options (also `--help`, the viewer, the report sweep and docs/techniques/isg.md).
 pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         key: "diffuse",
@@ -151,10 +151,8 @@ impl IsgOptions {
     }
 
     /// Parse `key=value` pairs against [`OPTIONS`]; unknown keys and bad values are errors naming them.
-    pub fn parse(pairs: &[(String, String)]) -> crate::gpu::Result<Self> {
-        crate::options::parse("isg", OPTIONS, pairs)
-            .map(|o| Self::from_options(&o))
-            .map_err(|e| crate::gpu::GpuError::Other(e.0))
+    pub fn parse(pairs: &[(String, String)]) -> Result<Self, crate::options::OptionError> {
+        crate::options::parse("isg", OPTIONS, pairs).map(|o| Self::from_options(&o))
     }
 }
 

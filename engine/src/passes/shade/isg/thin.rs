@@ -1,6 +1,6 @@
 //! f64 twin of the thin-shell patch marking (shaders-glsl/common/isg_thin.glsl) and of the thin
 //! triangles' self-shadowing rule (shaders-glsl/common/thin.glsl), used by
-//! [`super::cpu::occlusion_with_thin`].
+//! `super::cpu::occlusion_with_thin`.
 //!
 //! A triangle (world space) seen from receiver p is projected onto the unit sphere around p and
 //! rasterized into the lobe's patch grid: a patch is occluded when its centre direction ω lies in the
@@ -12,7 +12,7 @@
 //! The clusters and their cone culling on the GPU are conservative (a culled cluster has no direction
 //! in the grid), so the twin takes the triangles as a flat list.
 
-use super::cpu::Grid;
+use super::grid::Grid;
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -128,14 +128,9 @@ pub fn parallel_rectangle_form_factor(x0: f64, x1: f64, z0: f64, z1: f64, h: f64
 
 #[cfg(test)]
 mod tests {
-    use super::super::cpu::{grid, occluded_sum, occlusion, occlusion_with_thin};
+    use super::super::grid::grid;
     use super::super::IsgOptions;
     use super::*;
-    use engine_math::isg::IsgLut;
-
-    fn square(y: f64, half: f64) -> Vec<[DVec3; 3]> {
-        grid_square(y, half, 1)
-    }
 
     /// A square at height y, n × n quads, two triangles each.
     fn grid_square(y: f64, half: f64, n: usize) -> Vec<[DVec3; 3]> {
@@ -222,58 +217,6 @@ mod tests {
                 }
             }
             assert_eq!(mask, brute, "case {case}");
-        }
-    }
-
-    /// Hard cases: the receiver's own and nearly coplanar triangles, degenerate and edge-on triangles,
-    /// triangles straddling the tangent plane, below it, around the receiver, huge: finite, between the
-    /// horizon's occlusion and the whole grid's, and ignored where the rule says so.
-    #[test]
-    fn hard_cases_are_finite_and_rule_abiding() {
-        let lut = IsgLut::generate_default();
-        // 16 × 16: one triangle under the self-shadowing rule cannot reach the corner patches of a finer grid
-        // (centres 0.14° above the horizon at P = 32).
-        let o = IsgOptions { side: 16, ..IsgOptions::default() };
-        let (p, n) = (DVec3::ZERO, DVec3::Y);
-        for lambda in [1e-4, 1.0, 100.0, 1e5] {
-            let (h, none) = occlusion(p, n, n, lambda, &o, &[], &lut);
-            // The receiver's own triangle and coplanar neighbours: nothing beyond the horizon.
-            let own = square(0.0, 0.5);
-            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &own, &lut), (h, none));
-            // Tilted by 1e-4 rad through the receiver: still within ε of its plane.
-            let tilt = [[DVec3::new(-1.0, -1e-4, 0.0), DVec3::new(1.0, 1e-4, -1.0), DVec3::new(1.0, 1e-4, 1.0)]];
-            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &tilt, &lut).1, none);
-            // Degenerate (zero-area, collinear, repeated vertices) and edge-on triangles.
-            let a = DVec3::new(0.0, 1.0, 0.0);
-            let degenerate = [
-                [a, a, a],
-                [a, a + DVec3::X, a + 2.0 * DVec3::X],
-                [a, a, a + DVec3::Z],
-                // Edge-on: its plane contains the receiver.
-                [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 2.0, 1.0), DVec3::new(0.0, 2.0, -1.0)],
-            ];
-            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &degenerate, &lut).1, none, "λ {lambda}");
-            // A sheet straddling the tangent plane, a sheet around the receiver (covers more than a
-            // hemisphere from below), one wholly below it, and a huge one: finite, within [horizon, whole].
-            let straddle = [[DVec3::new(0.5, -1.0, -1.0), DVec3::new(0.5, 1.0, -1.0), DVec3::new(0.5, 0.0, 1.0)]];
-            let around =
-                [[DVec3::new(-100.0, 0.5, -100.0), DVec3::new(100.0, 0.5, -100.0), DVec3::new(0.0, 0.5, 200.0)]];
-            let below = square(-1.0, 3.0);
-            let huge = square(1e-2, 5.0);
-            let g = grid(n, lambda, &o);
-            let whole = occluded_sum(&vec![vec![true; g.side]; g.side], &g, lambda, o.evaluator, &lut);
-            for (what, tris) in
-                [("straddle", &straddle[..]), ("around", &around[..]), ("below", &below[..]), ("huge", &huge[..])]
-            {
-                let (hh, v) = occlusion_with_thin(p, n, n, lambda, &o, &[], tris, &lut);
-                assert!(v.is_finite() && v >= hh && v <= whole * (1.0 + 1e-9), "{what} λ {lambda}: {v} of {whole}");
-            }
-            assert_eq!(occlusion_with_thin(p, n, n, lambda, &o, &[], &below, &lut).1, none, "below the plane");
-            let (_, around_v) = occlusion_with_thin(p, n, n, lambda, &o, &[], &around, &lut);
-            assert!(
-                (around_v - whole).abs() <= 1e-9 * whole,
-                "λ {lambda}: a sheet over everything: {around_v} of {whole}"
-            );
         }
     }
 
