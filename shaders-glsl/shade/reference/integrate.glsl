@@ -167,16 +167,18 @@ float light_hit(uint j, vec3 p, vec3 d) {
 float visible_until(vec3 o, vec3 d, float t_max) {
     if (params.visibility == 1u) return t_max;
     if (params.visibility == 2u)
-        return trace_planes(o, d, trace_thin(o, d, trace_spheres(o, d, t_max, params.sphere_count, false), false), false);
-    return trace_triangles(o, d, t_max, false);
+        return trace_planes(o, d, trace_thin(o, d, trace_spheres(o, d, t_max, params.sphere_count, false), false, true),
+                            false);
+    // The truth: the solid meshes' BVH and the thin meshes' live triangles, each hit exactly.
+    return trace_thin(o, d, trace_triangles(o, d, t_max, false), false, false);
 }
 
 bool unoccluded(vec3 o, vec3 d, float t_max) {
     if (params.visibility == 1u) return true;
     if (params.visibility == 2u)
-        return trace_spheres(o, d, t_max, params.sphere_count, true) >= t_max && trace_thin(o, d, t_max, true) >= t_max &&
-               trace_planes(o, d, t_max, true) >= t_max;
-    return trace_triangles(o, d, t_max, true) >= t_max;
+        return trace_spheres(o, d, t_max, params.sphere_count, true) >= t_max &&
+               trace_thin(o, d, t_max, true, true) >= t_max && trace_planes(o, d, t_max, true) >= t_max;
+    return trace_triangles(o, d, t_max, true) >= t_max && trace_thin(o, d, t_max, true, false) >= t_max;
 }
 
 // Power heuristic weight of a strategy with density pa against one with pb.

@@ -156,15 +156,17 @@ float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit
 }
 
 // ---- thin shells: the world-space triangles of meshes marked thin (written every frame by the
-// thin_shells pass) are their own proxy, seen through the same rule as in ISG (thin.glsl: a triangle
-// whose plane passes within ε of the receiver, or of zero area, does not block it) ----
+// thin_shells pass, so a simulated cloth is where the G-buffer draws it). For the sphere proxy they are
+// their own proxy, seen through the same rule as in ISG (thin.glsl: a triangle whose plane passes within
+// ε of the receiver, or of zero area, does not block it); for the triangle truth they are hit exactly,
+// like the triangles of the BVH (the triangle BVH leaves them out) ----
 #include "../../common/thin.glsl"
 layout(std430, binding = 16) readonly buffer ThinTriangles { ThinTriangle thin_triangles[]; };
 layout(std430, binding = 17) readonly buffer ThinClusters { ThinCluster thin_clusters[]; };
 
-// Nearest hit distance in (0, t_max) on a thin triangle that blocks the receiver, or t_max. Clusters
-// are culled by their bounding spheres.
-float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
+// Nearest hit distance in (0, t_max) on a thin triangle (one that blocks the receiver, with
+// `receiver_rule`), or t_max. Clusters are culled by their bounding spheres.
+float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit, bool receiver_rule) {
     float best = t_max;
     if (thin_clusters[0].count == 0u) return best;
     uint clusters = uint(thin_clusters.length());
@@ -177,7 +179,8 @@ float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
             ThinTriangle tri = thin_triangles[i];
             float orient;
             vec3 p = g_receiver_p;
-            if (!thin_blocks_receiver(tri.v0.xyz - p, tri.v1.xyz - p, tri.v2.xyz - p, orient)) continue;
+            if (receiver_rule && !thin_blocks_receiver(tri.v0.xyz - p, tri.v1.xyz - p, tri.v2.xyz - p, orient))
+                continue;
             float h = intersect_triangle(o, d, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, best);
             if (h > 0.0) {
                 best = h;

@@ -4,7 +4,8 @@
 //! solid angle, marginal and conditional CDFs built here), light sampling (uniform in the cone a
 //! sphere subtends) and BRDF sampling (cosine / Blinn-Phong lobe), combined by the power heuristic.
 //! Visibility is traced against the real triangles through a binned-SAH BVH
-//! ([`crate::scene::triangle_bvh`]) or switched off ([`Visibility::Unoccluded`]).
+//! ([`crate::scene::triangle_bvh`]) plus the live triangles of thin meshes, against the sphere proxies, or
+//! switched off ([`Visibility::Unoccluded`]).
 //!
 //! Samples are deterministic (PCG hash of item, sample index and seed) and accumulate over frames
 //! (Welford mean and M2 per item in device buffers) until the view changes, so the engine knows the
@@ -16,7 +17,8 @@ use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::resources::blockers::GpuVertexSkin;
 use crate::resources::layout::{FrameData, GpuObject, GpuVertex};
 use crate::resources::Geometry;
-use crate::scene::triangle_bvh::{TriNode, TriangleBvh};
+use crate::resources::ThinResources;
+use crate::scene::triangle_bvh::TriangleBvh;
 use bytemuck::{Pod, Zeroable};
 use engine_math::envmap::{texel_solid_angle, LatLongMap};
 use glam::{Mat4, Vec3, Vec4};
@@ -61,7 +63,9 @@ pub struct ReferenceParams {
 /// What blocks the rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Visibility {
-    /// The scene's triangles (the ground truth).
+    /// The scene's triangles (the ground truth): those of solid meshes through the host-built BVH at the
+    /// frame's pose, those of thin meshes (a simulated cloth) as the `thin_shells` pass writes them every frame,
+    /// each hit exactly (no self-shadowing rule; the ray offset is the only guard).
     Triangles,
     /// Nothing (unshadowed lighting, for the decomposition of error and closed-form checks).
     Unoccluded,
@@ -223,16 +227,25 @@ struct RestGeometry {
     skins: Vec<GpuVertexSkin>,
     indices: Vec<u32>,
     bone_count: usize,
+    /// Per scene triangle: whether it is a thin shell's (traced live from `ThinResources::triangles`).
+    thin: Vec<bool>,
 }
 
 impl RestGeometry {
-    fn read(gpu: &Gpu, scene: &Geometry) -> Result<Self> {
+    fn read(gpu: &Gpu, scene: &Geometry, thin: &ThinResources) -> Result<Self> {
         let mut vertices: Vec<GpuVertex> = gpu.read_buffer(&scene.vertices)?;
         let mut indices: Vec<u32> = gpu.read_buffer(&scene.indices)?;
         let skins: Vec<GpuVertexSkin> = gpu.read_buffer(&scene.vertex_skins)?;
         vertices.truncate(scene.vertex_count as usize);
         indices.truncate(scene.index_count as usize);
-        Ok(Self { vertices, skins, indices, bone_count: scene.bone_count as usize })
+        // The thin triangles hold the scene's vertex indices (resources::thin::gather), so a scene triangle is
+        // thin when its index triple is one of theirs.
+        let thin_indices: Vec<[u32; 4]> =
+            if thin.triangle_count == 0 { Vec::new() } else { gpu.read_buffer(&thin.indices)? };
+        let thin_set: std::collections::HashSet<[u32; 3]> =
+            thin_indices.iter().take(thin.triangle_count as usize).map(|t| [t[0], t[1], t[2]]).collect();
+        let thin = indices.chunks_exact(3).map(|t| thin_set.contains(&[t[0], t[1], t[2]])).collect();
+        Ok(Self { vertices, skins, indices, bone_count: scene.bone_count as usize, thin })
     }
 
     /// World-space triangles at `pose`, by the skin pass's formula ([`skinned_position`]).
@@ -286,7 +299,10 @@ impl Pose {
     }
 }
 
-/// The triangle BVH in device memory and the world-space triangles it was built from (scene index order).
+/// The triangle BVH in device memory and the world-space triangles of the pose it was built for (scene index
+/// order, thin triangles included). The BVH holds only the triangles of meshes that are not thin: those of thin
+/// meshes (a simulated cloth above all) are traced from their world-space triangles that the `thin_shells` pass
+/// rewrites every frame, the triangles the G-buffer rasterises, which a host-posed copy of the rest mesh is not.
 struct PosedTriangles {
     nodes: Buffer,
     triangles: Buffer,
@@ -298,15 +314,20 @@ struct PosedTriangles {
 impl PosedTriangles {
     fn build(gpu: &Gpu, rest: &RestGeometry, pose: Pose) -> Result<Self> {
         let world = rest.world_triangles(&pose)?;
-        let bvh = TriangleBvh::build(&world);
+        let solid: Vec<[Vec3; 3]> = world.iter().zip(&rest.thin).filter(|(_, thin)| !**thin).map(|(t, _)| *t).collect();
+        let bvh = TriangleBvh::build(&solid);
         let depth = bvh.depth();
         if depth >= TRACE_STACK {
             return Err(GpuError::Other(format!(
                 "reference: triangle BVH depth {depth} exceeds the traversal stack ({TRACE_STACK})"
             )));
         }
-        let scene_diagonal =
-            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.hi) - Vec3::from(n.lo)).length());
+        // The bounds of every triangle, thin ones included (a scene of thin meshes alone has an empty BVH).
+        let (lo, hi) = world
+            .iter()
+            .flatten()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
+        let scene_diagonal = if world.is_empty() { 1.0 } else { (hi - lo).length() };
         let nodes = gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?;
         let triangles = match gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles) {
             Ok(t) => t,
@@ -484,7 +505,7 @@ impl Reference {
     fn build_tables(gpu: &Gpu, inputs: &ShadeInputs) -> Result<Tables> {
         let env = EnvSampling::build(&inputs.environment.cpu)?;
         let geometry = inputs.geometry()?;
-        let rest = RestGeometry::read(gpu, geometry)?;
+        let rest = RestGeometry::read(gpu, geometry, inputs.thin()?)?;
         // The pose the scene has now (its initial bones and transforms, or the last set_bones): the G-buffer's.
         let triangles = PosedTriangles::build(gpu, &rest, Pose::read(geometry)?)?;
         let mut made: Vec<Buffer> = Vec::new();
@@ -535,10 +556,18 @@ impl Reference {
         Ok(())
     }
 
-    /// The world-space triangles (scene index order) the triangle BVH holds: the pose of the last recorded
-    /// frame, or of `prepare` before any. What the rays see, for tests against the skin pass.
+    /// The world-space triangles (scene index order) of the pose the triangle BVH was built for: the pose of the
+    /// last recorded frame, or of `prepare` before any. What the rays see, for tests against the skin pass, except
+    /// the thin meshes' triangles (see [`Reference::thin_triangles`]), which the rays see as the `thin_shells`
+    /// pass writes them.
     pub fn posed_triangles(&self) -> Option<Ref<'_, [[Vec3; 3]]>> {
         self.tables.as_ref().map(|t| Ref::map(t.triangles.borrow(), |p| p.world.as_slice()))
+    }
+
+    /// Per scene triangle (index order), whether it belongs to a thin mesh: left out of the triangle BVH and
+    /// traced from the live thin triangles instead (`None` before `prepare`).
+    pub fn thin_triangles(&self) -> Option<&[bool]> {
+        self.tables.as_ref().map(|t| t.rest.thin.as_slice())
     }
 
     /// Samples the next frames add per item, keeping what is accumulated (integrate.glsl merges batches of any
