@@ -301,3 +301,20 @@ fn the_triangle_reference_traces_the_simulated_cloth() {
     gpu.shutdown().expect("clean teardown");
 }
 
+/// The shaders a reference frame compiles are exactly `FRAME_SHADERS`, whose sources key the reference cache of
+/// `compare --reference-cache` (issue 35, defect 2): a new pass in the frame must be added there. The cloth scene
+/// runs every pass (skin, blocker spheres and BVH, cloth, thin shells, G-buffer, reference, tonemap).
+#[test]
+fn a_reference_frame_compiles_the_frame_shaders() {
+    use engine::passes::shade::reference::FRAME_SHADERS;
+    let gpu = gpu();
+    assert!(gpu.compiled_shaders().is_empty(), "a fresh device has compiled nothing");
+    let scene = demos::scenes::build("cloth", None).unwrap();
+    let mut r = Renderer::new(&gpu, &scene, settings("reference", 8, 8)).unwrap();
+    r.render(&gpu).unwrap();
+    r.destroy(&gpu);
+    let mut listed: Vec<String> = FRAME_SHADERS.iter().map(|s| s.to_string()).collect();
+    listed.sort();
+    assert_eq!(gpu.compiled_shaders(), listed);
+    gpu.shutdown().expect("clean teardown");
+}

@@ -67,9 +67,12 @@ struct Args {
     /// Drop the scene's plane blockers (the ground as a blocker): the sphere set alone, as before planes.
     #[arg(long)]
     no_plane_blockers: bool,
-    /// Keep converged references in this folder, keyed by everything that determines them (scene, env, size,
-    /// material overrides incl. --brdf, spheres, visibility, fraction, max spp, --time), and reuse them. The fraction rule converges
-    /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
+    /// Keep converged references in this folder, and reuse them. A file is keyed by everything that determines
+    /// its image: the scene's content as built (the scene file and every file it loads, the environment, the
+    /// overrides --gloss, --ks, --brdf, --spheres, --no-plane-blockers, --env, --time), the size, the
+    /// visibility, --fraction, --max-spp and the reference's code (its version and its shaders' sources); an
+    /// edited scene or mesh is a new file. The fraction rule converges against the techniques of the first
+    /// run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
     /// Measure the scene as its motion poses it at this time (s), frozen: instance transforms and bones from
@@ -184,24 +187,10 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             max_spp: args.max_spp,
             samples_per_frame: 16,
         };
-        let cache = args.reference_cache.as_ref().map(|dir| {
-            let key = format!(
-                "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}{}",
-                args.scene,
-                args.env,
-                w,
-                h,
-                args.gloss,
-                args.ks,
-                args.spheres,
-                args.fraction,
-                args.max_spp,
-                args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
-            ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" }
-                + &args.time.map(|t| format!("|time={}", t.to_bits())).unwrap_or_default();
-            let hash = key.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
-            dir.join(format!("{}-{vis_name}-{hash:016x}.refimg", args.scene))
-        });
+        let cache = match &args.reference_cache {
+            Some(dir) => Some(measure::reference_cache_file(gpu, dir, &args.scene, scene, w, h, &run)?),
+            None => None,
+        };
         let cached = cache.as_ref().filter(|p| p.exists()).map(|p| {
             eprintln!("reference from the cache {}", p.display());
             measure::ReferenceImage::load(p, *vis, (w * h) as usize)
@@ -211,7 +200,9 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             None => {
                 let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
                 if let Some(p) = &cache {
-                    std::fs::create_dir_all(p.parent().unwrap())?;
+                    if let Some(dir) = p.parent() {
+                        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+                    }
                     r.save(p)?;
                 }
                 r

@@ -41,6 +41,40 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     create: |gpu, _| Ok(Box::new(Reference::new(gpu)?)),
 };
 
+/// The version of the reference's host code (sampling tables, what the triangle BVH holds, how samples are
+/// merged): bumped whenever a change alters its images, so that references cached on disk
+/// (`compare --reference-cache`) are not reused across it. Its shaders need no bump: caches key their sources
+/// ([`FRAME_SHADERS`]). 2: thin meshes (a simulated cloth) traced live, not from the posed rest mesh (issue 35).
+pub const REFERENCE_CODE_VERSION: u32 = 2;
+
+/// Every shader a renderer with the reference technique compiles (its own and the frame's passes), paths relative
+/// to `shaders-glsl`: with their includes, the shader sources a reference image depends on
+/// (tests/tests/reference.rs checks that the list is complete).
+pub const FRAME_SHADERS: &[&str] = &[
+    "blocker_bvh/bounds.comp",
+    "blocker_bvh/hierarchy.comp",
+    "blocker_bvh/morton.comp",
+    "blocker_bvh/radix_count.comp",
+    "blocker_bvh/radix_scan.comp",
+    "blocker_bvh/radix_scatter.comp",
+    "blocker_bvh/refit.comp",
+    "blocker_spheres/animate.comp",
+    "cloth/finish.comp",
+    "cloth/predict.comp",
+    "cloth/reset.comp",
+    "cloth/solve.comp",
+    "cloth/spheres.comp",
+    "cloth/write.comp",
+    "gbuffer/gbuffer.frag",
+    "gbuffer/gbuffer.vert",
+    "shade/compose.comp",
+    "shade/reference/pixel.comp",
+    "shade/reference/vertex.comp",
+    "skin/skin.comp",
+    "thin_shells/triangles.comp",
+    "tonemap/tonemap.comp",
+];
+
 /// Push constants (`Params` in integrate.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
