@@ -1,8 +1,8 @@
 //! `compare`: measure techniques against the Monte Carlo reference on one frame of a scene.
 //!
 //! For each `--technique SPEC` it renders `--frames` frames (median per-pass GPU times), then
-//! converges the reference (sphere proxies and/or triangles) until its own relative standard error
-//! is at most `--fraction` of the error being measured, and prints relative RMSE (%) over covered
+//! converges the reference (sphere proxies and/or triangles; always per pixel, also with `--per-vertex`)
+//! until its own relative standard error is at most `--fraction` of the error being measured, and prints relative RMSE (%) over covered
 //! pixels, max error, FLIP mean, and the technique's shade time against the reference's time per
 //! sample. Heat maps and images go to `--out`.
 //!
@@ -61,7 +61,9 @@ struct Args {
     frames: u32,
     #[arg(long, default_value = "out/compare")]
     out: PathBuf,
-    /// Per-vertex shading for the techniques and the reference.
+    /// Per-vertex shading for the techniques. The reference is always rendered per pixel: a per-vertex
+    /// technique is measured against the per-pixel truth, so its error includes what interpolating between
+    /// vertices loses.
     #[arg(long)]
     per_vertex: bool,
     /// Drop the scene's plane blockers (the ground as a blocker): the sphere set alone, as before planes.
