@@ -127,9 +127,12 @@ vec3 g_receiver_n = vec3(0.0, 1.0, 0.0);
 // Nearest entry distance in (0, t_max) into a blocker sphere, or t_max. Each leaf sphere is first
 // replaced by its blocker for the receiver (eliminated behind the tangent plane, shrunk to tangency
 // when the receiver is inside, the tangent sphere in front when it straddles); the replacement lies
-// inside the original, so the BVH's bounds stay conservative. Only spheres the ray enters in front of
-// the origin count. Overflow of the node stack takes the node's bounding sphere whole (conservative, as
-// in bvh.glsl); with the LBVH's depth bound it never happens.
+// inside the original, so the BVH's bounds stay conservative. A blocker counts when the ray from the
+// receiver itself, not from the offset origin o, enters it in front of the receiver: a blocker tangent
+// to T_p next to p holds o (o is p moved along the normal), and traced from o it was never entered,
+// so a ground point under a bunny sphere's centre, hidden by the proxy (and by isg), came out lit
+// (issue 35). Overflow of the node stack takes the node's bounding sphere whole (conservative, as in
+// bvh.glsl); with the LBVH's depth bound it never happens.
 float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit) {
     float best = t_max;
     BvhCursor c = bvh_cursor_begin(sphere_count);
@@ -144,7 +147,7 @@ float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit
         if (leaf) {
             vec4 blk;
             if (!blocker_for_receiver(g_receiver_p, g_receiver_n, s, blk) || blk.w <= 0.0) continue;
-            t = ray_sphere(o, d, blk);
+            t = ray_sphere(g_receiver_p, d, blk);
             if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
         }
         if (t.x > 0.0) {
