@@ -26,7 +26,7 @@ layout(push_constant) uniform Params {
     uint env_height;
     uint visibility;   // 0 triangles, 1 none (unoccluded), 2 blocker spheres
     uint item_count;
-    float ray_offset;  // world units, along the normal
+    float ray_offset;  // along the normal, relative to g_coordinate_scale
     float env_total;   // 0: the environment is black (no environment sampling)
     uint sphere_count;
     float pad0;
@@ -187,6 +187,16 @@ float power_weight(float pa, float pb) {
     return 1.0 / (1.0 + r * r);
 }
 
+// The magnitude of the coordinates the shading point was computed from (set by pixel.comp and vertex.comp):
+// its rounding error, and the intersection's near it, scale with them (pbrt-v4 bounds a hit point's error by
+// γ_n Σ |b_i p_i|), not with the scene's size.
+float g_coordinate_scale = 1.0;
+
+float max_abs(vec3 v) {
+    vec3 a = abs(v);
+    return max(a.x, max(a.y, a.z));
+}
+
 // One sample of L_o: one environment sample, one light sample, one BRDF sample.
 vec3 reference_sample(ShadePoint sp, inout uint rng) {
     Material m = sp.material;
@@ -196,7 +206,7 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     // spawn_ray do (the shading normal may lean over the triangle's plane). Those move to the ray's
     // side; with reflection-only BRDFs the viewer's side is used for every ray, so a direction above
     // the shading plane but below the triangle's meets the surface itself instead of leaking through.
-    vec3 o = sp.position + params.ray_offset * sp.geometric;
+    vec3 o = sp.position + params.ray_offset * g_coordinate_scale * sp.geometric;
     g_receiver_p = sp.position;
     g_receiver_n = n;
     float p_spec = specular_choice(m);

@@ -44,8 +44,9 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
 /// The version of the reference's host code (sampling tables, what the triangle BVH holds, how samples are
 /// merged): bumped whenever a change alters its images, so that references cached on disk
 /// (`compare --reference-cache`) are not reused across it. Its shaders need no bump: caches key their sources
-/// ([`FRAME_SHADERS`]). 2: thin meshes (a simulated cloth) traced live, not from the posed rest mesh (issue 35).
-pub const REFERENCE_CODE_VERSION: u32 = 2;
+/// ([`FRAME_SHADERS`]). 2: thin meshes (a simulated cloth) traced live, not from the posed rest mesh; 3: the ray
+/// offset relative to the shading point's coordinates, not the scene's diagonal (both issue 35).
+pub const REFERENCE_CODE_VERSION: u32 = 3;
 
 /// Every shader a renderer with the reference technique compiles (its own and the frame's passes), paths relative
 /// to `shaders-glsl`: with their includes, the shader sources a reference image depends on
@@ -121,14 +122,19 @@ pub struct ReferenceOptions {
     pub samples_per_frame: u32,
     pub seed: u32,
     pub visibility: Visibility,
-    /// Ray origins move this far along the normal, as a fraction of the scene's bounding-box
-    /// diagonal (self-intersection guard; contact shadows closer than this are lost).
+    /// Ray origins move along the geometric normal by this fraction of the magnitude of the coordinates the
+    /// shading point was interpolated from (the larger of |p|∞ and its triangle's first vertex's |v|∞), the
+    /// scale of its rounding error (self-intersection guard; contact shadows closer than this are lost).
+    /// 5e-5 is about 400 f32 ulps: 0.1 mm at 2 m from the origin. It used to be a fraction (1e-4) of the
+    /// scene's bounding-box diagonal, which a 2 km ground plane made 0.28 m: origins under a ball resting
+    /// above it moved into the ball, and the triangle reference went black there (issue 35, the gate's
+    /// `ball-above-*` fixtures).
     pub ray_offset: f32,
 }
 
 impl Default for ReferenceOptions {
     fn default() -> Self {
-        Self { samples_per_frame: 4, seed: 1, visibility: Visibility::Triangles, ray_offset: 1e-4 }
+        Self { samples_per_frame: 4, seed: 1, visibility: Visibility::Triangles, ray_offset: 5e-5 }
     }
 }
 
@@ -342,7 +348,6 @@ struct PosedTriangles {
     triangles: Buffer,
     pose: Pose,
     world: Vec<[Vec3; 3]>,
-    scene_diagonal: f32,
 }
 
 impl PosedTriangles {
@@ -356,12 +361,6 @@ impl PosedTriangles {
                 "reference: triangle BVH depth {depth} exceeds the traversal stack ({TRACE_STACK})"
             )));
         }
-        // The bounds of every triangle, thin ones included (a scene of thin meshes alone has an empty BVH).
-        let (lo, hi) = world
-            .iter()
-            .flatten()
-            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
-        let scene_diagonal = if world.is_empty() { 1.0 } else { (hi - lo).length() };
         let nodes = gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?;
         let triangles = match gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles) {
             Ok(t) => t,
@@ -370,7 +369,7 @@ impl PosedTriangles {
                 return Err(e);
             }
         };
-        Ok(Self { nodes, triangles, pose, world, scene_diagonal })
+        Ok(Self { nodes, triangles, pose, world })
     }
 
     fn destroy(self, gpu: &Gpu) {
@@ -677,7 +676,7 @@ impl Technique for Reference {
                 Visibility::Spheres => 2,
             },
             item_count: items,
-            ray_offset: self.options.ray_offset * posed.scene_diagonal,
+            ray_offset: self.options.ray_offset,
             env_total: t.env_total,
             sphere_count: blockers.sphere_count,
             pad0: 0.0,
@@ -715,6 +714,7 @@ impl Technique for Reference {
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
                 b.push(Binding::storage_image("gbuf_geometric", &gbuffer.geometric));
                 b.push(Binding::storage_image("radiance", radiance));
+                b.push(Binding::buffer("WorldVertices", &inputs.geometry()?.world_vertices));
                 let pipeline = self.pipelines.pixel(rec.gpu())?;
                 rec.dispatch(pipeline, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
             }
