@@ -59,8 +59,8 @@ bool isg_thin_present() {
     return ISG_THIN_CLUSTER(0).count > 0u;
 }
 
-// Sines and cosines of the patch centres' angles θ_i = φ_i = lo + (i + ½) δ (rows and columns share them),
-// filled once per grid on first use.
+// Sines and cosines of the patch rows' centre angles θ_i = lo + (i + ½) δ, filled once per grid on first
+// use.
 float g_isg_thin_sin[ISG_MAX_SIDE];
 float g_isg_thin_cos[ISG_MAX_SIDE];
 
@@ -70,28 +70,6 @@ void isg_thin_tables(IsgGrid g) {
         g_isg_thin_sin[i] = sin(a);
         g_isg_thin_cos[i] = cos(a);
     }
-}
-
-// A cluster seen through this many candidate patches or fewer is marked patch by patch (a ray from p along
-// each candidate's centre against the cluster's triangles), not triangle by triangle: a far cluster of small
-// triangles (the cloth's, ~2° each against patches of 5.6°) touches a few patch centres, and a ray-triangle
-// test costs no transcendental where a triangle's rows cost three atan and three acos a row.
-const int ISG_THIN_RAY_PATCHES = 12;
-
-// Whether the ray from the receiver along unit w meets the triangle (receiver-relative a, e1 = b − a,
-// e2 = c − a) in front of it: w = αa + βb + γc with α, β, γ ≥ 0, the centre test of the rows' spans
-// (Möller–Trumbore from the origin).
-bool isg_thin_ray_hits(vec3 w, vec3 a, vec3 e1, vec3 e2) {
-    vec3 pv = cross(w, e2);
-    float det = dot(e1, pv);
-    if (det == 0.0) return false;
-    float inv = 1.0 / det;
-    float u = dot(-a, pv) * inv;
-    if (u < 0.0 || u > 1.0) return false;
-    vec3 qv = cross(-a, e1);
-    float v = dot(w, qv) * inv;
-    if (v < 0.0 || u + v > 1.0) return false;
-    return dot(e2, qv) * inv > 0.0;
 }
 
 // One edge plane of a triangle in the grid's frame, prepared for rasterizing rows: e (its oriented
@@ -185,55 +163,6 @@ bool isg_thin_mark(IsgGrid g) {
         if (!have_tables) {
             isg_thin_tables(g);
             have_tables = true;
-        }
-        // A small cluster: its candidate patches (centres in its padded cap, not yet occluded), one ray each.
-        if (psi < ISG_HALF_PI && dist > 0.0) {
-            vec3 u = d / dist;
-            float ux = dot(u, g.x);
-            float uz = dot(u, g.z);
-            float rho = length(vec2(ux, uz));
-            float uy = dot(u, g.y);
-            float phi_c = rho > 0.0 ? atan(uz, ux) : 0.0;
-            float cos_psi = cos(psi);
-            int candidates = 0;
-            for (int i = i_lo; i <= i_hi && candidates <= ISG_THIN_RAY_PATCHES; ++i) {
-                candidates += bitCount(isg_cap_row_bits(g, i, rho, uy, phi_c, cos_psi) & ~isg_mask[i]);
-            }
-            if (candidates <= ISG_THIN_RAY_PATCHES) {
-                // The triangles that pass the receiver rule (a cluster holds at most 32).
-                uint valid = 0u;
-                for (uint t = 0u; t < cl.count; ++t) {
-                    ThinTriangle tri = ISG_THIN_TRIANGLE(cl.first + t);
-                    vec3 a = tri.v0.xyz - p;
-                    vec3 b = tri.v1.xyz - p;
-                    vec3 c = tri.v2.xyz - p;
-                    float orient;
-                    if (dot(a, n) <= 0.0 && dot(b, n) <= 0.0 && dot(c, n) <= 0.0) continue;
-                    if (thin_blocks_receiver(a, b, c, orient)) valid |= 1u << t;
-                }
-                for (int i = i_lo; i <= i_hi && valid != 0u; ++i) {
-                    uint m = isg_cap_row_bits(g, i, rho, uy, phi_c, cos_psi) & ~isg_mask[i];
-                    float st = g_isg_thin_sin[i];
-                    vec3 row = g_isg_thin_cos[i] * g.y;
-                    while (m != 0u) {
-                        int j = findLSB(m);
-                        m &= m - 1u;
-                        vec3 w = st * g_isg_thin_cos[j] * g.x + row + st * g_isg_thin_sin[j] * g.z;
-                        uint left = valid;
-                        while (left != 0u) {
-                            uint t = uint(findLSB(left));
-                            left &= left - 1u;
-                            ThinTriangle tri = ISG_THIN_TRIANGLE(cl.first + t);
-                            vec3 a = tri.v0.xyz - p;
-                            if (isg_thin_ray_hits(w, a, tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz)) {
-                                isg_mask[i] |= 1u << uint(j);
-                                break;
-                            }
-                        }
-                    }
-                }
-                continue;
-            }
         }
         for (uint t = cl.first; t < cl.first + cl.count; ++t) {
             ThinTriangle tri = ISG_THIN_TRIANGLE(t);
