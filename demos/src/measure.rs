@@ -6,8 +6,9 @@ use anyhow::{Context, Result};
 use engine::converge::{self, ConvergeReport, HalfMeans};
 use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
+use engine::math::tables::Fnv1a64;
 use engine::metrics;
-use engine::passes::shade::reference::{ReferenceOptions, Visibility};
+use engine::passes::shade::reference::{ReferenceOptions, Visibility, FRAME_SHADERS, REFERENCE_CODE_VERSION};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
 use std::path::Path;
@@ -267,6 +268,58 @@ pub fn reference_at(
     reference_image(gpu, scene, settings, &run, |_| false)
 }
 
+/// The reference's options for `run`. The same seed for every reference: the sphere-proxy and triangle
+/// references then share their random numbers sample for sample, and the noise of their difference is
+/// estimated from the halves.
+fn reference_options(run: &ReferenceRun) -> ReferenceOptions {
+    ReferenceOptions {
+        samples_per_frame: run.samples_per_frame.max(1),
+        seed: 1,
+        visibility: run.visibility,
+        ..Default::default()
+    }
+}
+
+/// The digest of everything a reference image converged by [`converge_reference`] depends on, for a cache on disk:
+/// - the scene as built, after every override (its meshes, materials, instances and pose, environment texels,
+///   lights, blockers, cloth and camera: the content of the scene file and of every file it loads, not their
+///   paths), through its `Debug` text, which prints every field and every float exactly;
+/// - the size, and the run (visibility, fraction, most samples, samples per frame) with the reference's options
+///   (seed, ray offset);
+/// - the reference's code: [`REFERENCE_CODE_VERSION`] and the sources of every shader its frame compiles
+///   ([`FRAME_SHADERS`], with their includes).
+///
+/// Not keyed: the images the fraction rule converges against (the first run's techniques decide when it stops).
+/// FNV-1a 64 ([`Fnv1a64`]), stable across runs and Rust versions (not `DefaultHasher`).
+pub fn reference_key(gpu: &Gpu, scene: &Scene, width: u32, height: u32, run: &ReferenceRun) -> Result<u64> {
+    use std::fmt::Write;
+    let mut h = Fnv1a64::default();
+    write!(h, "{CACHE_MAGIC:?}|{REFERENCE_CODE_VERSION}|").ok();
+    for shader in FRAME_SHADERS {
+        for (path, text) in gpu.shader_sources(shader).with_context(|| format!("reading the shader {shader}"))? {
+            write!(h, "{path}|{}|{text}", text.len()).ok();
+        }
+    }
+    write!(h, "{width}x{height}|{run:?}|{:?}|{scene:?}", reference_options(run)).ok();
+    Ok(h.0)
+}
+
+/// The cache file of a reference: `<dir>/<scene>-<visibility>-<key>.refimg`, always in `dir` (for a scene given
+/// as a path, `<scene>` is its file stem), `key` from [`reference_key`].
+pub fn reference_cache_file(
+    gpu: &Gpu,
+    dir: &Path,
+    scene_name: &str,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    run: &ReferenceRun,
+) -> Result<std::path::PathBuf> {
+    let stem = Path::new(scene_name).file_stem().map_or_else(|| "scene".into(), |s| file_stem(&s.to_string_lossy()));
+    let key = reference_key(gpu, scene, width, height, run)?;
+    Ok(dir.join(format!("{stem}-{}-{key:016x}.refimg", visibility_name(run.visibility))))
+}
+
 fn reference_image(
     gpu: &Gpu,
     scene: &Scene,
@@ -274,14 +327,11 @@ fn reference_image(
     run: &ReferenceRun,
     done: impl FnMut(&engine::passes::shade::reference::ReferenceStats) -> bool,
 ) -> Result<ReferenceImage> {
-    let ReferenceRun { visibility, max_spp, samples_per_frame, .. } = *run;
+    let max_spp = run.max_spp;
     let settings = RenderSettings { technique: "reference".into(), per_vertex: false, ..settings.clone() };
     let mut r = Renderer::new(gpu, scene, settings)?;
     let out = (|| -> Result<ReferenceImage> {
-        // The same seed for every reference: the sphere-proxy and triangle references then share their random
-        // numbers sample for sample, and the noise of their difference is estimated from the halves.
-        let opts =
-            ReferenceOptions { samples_per_frame: samples_per_frame.max(1), seed: 1, visibility, ..Default::default() };
+        let opts = reference_options(run);
         converge::reference_mut(&mut r).context("reference technique")?.set_options(opts)?;
         let t0 = std::time::Instant::now();
         let (report, stats, halves) = converge::converge_until_split(gpu, &mut r, max_spp, done)?;
@@ -292,7 +342,7 @@ fn reference_image(
         let frame_ms: f64 = t.iter().filter(|p| p.name.starts_with("shade/")).map(|p| p.ms).sum();
         let ldr = r.read_ldr(gpu)?;
         Ok(ReferenceImage {
-            visibility,
+            visibility: run.visibility,
             hdr,
             ldr,
             mask: stats.covered,

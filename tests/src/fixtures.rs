@@ -200,3 +200,23 @@ pub fn smooth_cube(env: LatLongMap, albedo: f32) -> Scene {
         camera: Camera { eye: Vec3::new(0.0, 1.8, 3.2), target: Vec3::new(0.0, 0.3, 0.0), fov_y_degrees: 45.0 },
     }
 }
+
+/// Every analytic scene of this file under `env`, named, at parameters the other tests use: the test scenes
+/// of the artefact gate (tests/tests/artefact_gate.rs), which also takes every registered demo scene. A new
+/// fixture joins the gate by being listed here.
+pub fn gate_scenes(env: &LatLongMap) -> Vec<(&'static str, Scene)> {
+    vec![
+        ("fixture:sphere-over-plane", sphere_over_plane(env.clone(), 0.6, Vec3::new(0.0, 0.8, 0.0), 0.5)),
+        ("fixture:sheet-over-plane", sheet_over_plane(env.clone(), 0.7, 0.5, 0.7, 8)),
+        (
+            "fixture:ball-above-half-space",
+            ball_above_ground(env.clone(), 0.7, Vec3::new(0.0, 0.6, 0.0), 0.4, GroundBlocker::HalfSpace),
+        ),
+        (
+            "fixture:ball-above-rectangle",
+            ball_above_ground(env.clone(), 0.7, Vec3::new(0.0, 0.6, 0.0), 0.4, GroundBlocker::Rectangle),
+        ),
+        ("fixture:tilted-normal-box", tilted_normal_box(env.clone(), 0.7, 0.7, 4)),
+        ("fixture:smooth-cube", smooth_cube(env.clone(), 0.8)),
+    ]
+}

@@ -213,6 +213,59 @@ fn sphere_blocker_over_a_plane() {
     gpu.shutdown().expect("clean teardown");
 }
 
+// Issue 35, defect 4: a receiver inside a blocker sphere whose centre is in front of its tangent plane sees
+// the sphere shrunk to tangency (SHEXP §6.2): centre c, radius h = the centre's height, touching the ground at
+// the centre's foot. Its cap lies above the horizon, so the sphere-proxy reference must give ρL (1 − (h/d)³),
+// d = |c − p| (≈ 0 at the foot). The ray origin, moved along the normal by the ray offset, lies inside that
+// tangent sphere near the foot; traced from there the sphere was never entered and those pixels came out fully
+// lit (a bunny–ground contact pixel: 0.142 in the proxy reference where isg, following the same rule, gave 0).
+// A large ray offset (5 % of the point's coordinates, ~2.5 cm here) widens the region where the origin is
+// inside to ~0.12 m.
+#[test]
+fn a_receiver_inside_a_blocker_sees_its_tangent_sphere() {
+    let gpu = engine_tests::gpu();
+    let (albedo, l) = (0.6f32, 1.5f32);
+    let (centre, radius) = ([0.0f64, 0.3, 0.0], 0.5f64);
+    let mut scene = plane_and_sphere(LatLongMap::constant(64, 32, [l; 3]), albedo);
+    // The blocker alone (on the ground's mesh), no sphere mesh over the ground under it.
+    scene.meshes.truncate(1);
+    scene.instances.truncate(1);
+    let blocker = engine::blockers::Sphere { center: glam::DVec3::from(centre), radius };
+    scene.blockers.spheres = vec![Some(vec![blocker])];
+    scene.camera = Camera { eye: Vec3::new(0.0, 1.6, 0.9), target: Vec3::ZERO, fov_y_degrees: 40.0 };
+    let options =
+        ReferenceOptions { samples_per_frame: 32, seed: 5, visibility: Visibility::Spheres, ray_offset: 0.05 };
+    let (w, h) = (48, 36);
+    let mut r = renderer(&gpu, &scene, w, h, options);
+    let (_, stats) = converge::converge(&gpu, &mut r, 0.0, 256).expect("converge");
+    let g = gbuffer(&gpu, &r);
+    r.destroy(&gpu);
+    gpu.shutdown().expect("clean teardown");
+    let rho_l = (albedo * l) as f64;
+    let disc = (radius * radius - centre[1] * centre[1]).sqrt();
+    let (mut checked, mut bad) = (0, Vec::new());
+    for (i, px) in g.iter().enumerate() {
+        let Some((p, _)) = px else { continue };
+        let lateral = (p[0] * p[0] + p[2] * p[2]).sqrt();
+        if lateral > 0.95 * disc {
+            continue;
+        }
+        let d = ((centre[0] - p[0]).powi(2) + (centre[1] - p[1]).powi(2) + (centre[2] - p[2]).powi(2)).sqrt();
+        let want = rho_l * (1.0 - (centre[1] / d).powi(3));
+        let (m, s) = (stats.mean[i][0] as f64, stats.stderr[i][0] as f64);
+        checked += 1;
+        if (m - want).abs() > (4.0 * s).max(0.02 * rho_l) {
+            bad.push((i % w as usize, i / w as usize, lateral, m, want));
+        }
+    }
+    assert!(checked > 40, "only {checked} pixels inside the blocker's ground disc");
+    assert!(
+        bad.is_empty(),
+        "{} of {checked} pixels off the tangent sphere's closed form (x, y, lateral, got, want): {bad:?}",
+        bad.len()
+    );
+}
+
 // One spherical light (radiance L_s) over a Lambertian plane under a black environment:
 // ρ L_s h r²/d³ per pixel (the same cap integral, now lighting instead of blocking).
 #[test]

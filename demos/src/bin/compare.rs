@@ -1,8 +1,8 @@
 //! `compare`: measure techniques against the Monte Carlo reference on one frame of a scene.
 //!
 //! For each `--technique SPEC` it renders `--frames` frames (median per-pass GPU times), then
-//! converges the reference (sphere proxies and/or triangles) until its own relative standard error
-//! is at most `--fraction` of the error being measured, and prints relative RMSE (%) over covered
+//! converges the reference (sphere proxies and/or triangles; always per pixel, also with `--per-vertex`)
+//! until its own relative standard error is at most `--fraction` of the error being measured, and prints relative RMSE (%) over covered
 //! pixels, max error, FLIP mean, and the technique's shade time against the reference's time per
 //! sample. Heat maps and images go to `--out`.
 //!
@@ -61,15 +61,20 @@ struct Args {
     frames: u32,
     #[arg(long, default_value = "out/compare")]
     out: PathBuf,
-    /// Per-vertex shading for the techniques and the reference.
+    /// Per-vertex shading for the techniques. The reference is always rendered per pixel: a per-vertex
+    /// technique is measured against the per-pixel truth, so its error includes what interpolating between
+    /// vertices loses.
     #[arg(long)]
     per_vertex: bool,
     /// Drop the scene's plane blockers (the ground as a blocker): the sphere set alone, as before planes.
     #[arg(long)]
     no_plane_blockers: bool,
-    /// Keep converged references in this folder, keyed by everything that determines them (scene, env, size,
-    /// material overrides incl. --brdf, spheres, visibility, fraction, max spp, --time), and reuse them. The fraction rule converges
-    /// against the techniques of the first run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
+    /// Keep converged references in this folder, and reuse them. A file is keyed by everything that determines
+    /// its image: the scene's content as built (the scene file and every file it loads, the environment, the
+    /// overrides --gloss, --ks, --brdf, --spheres, --no-plane-blockers, --env, --time), the size, the
+    /// visibility, --fraction, --max-spp and the reference's code (its version and its shaders' sources); an
+    /// edited scene or mesh is a new file. The fraction rule converges against the techniques of the first
+    /// run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
     #[arg(long)]
     reference_cache: Option<PathBuf>,
     /// Measure the scene as its motion poses it at this time (s), frozen: instance transforms and bones from
@@ -181,28 +186,27 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             max_spp: args.max_spp,
             samples_per_frame: 16,
         };
-        let key = format!(
-            "{}|{:?}|{}x{}|{:?}|{:?}|{:?}|{vis_name}|{}|{}{}",
-            args.scene,
-            args.env,
-            w,
-            h,
-            args.gloss,
-            args.ks,
-            args.spheres,
-            args.fraction,
-            args.max_spp,
-            args.brdf.as_ref().map(|b| format!("|brdf={b}")).unwrap_or_default()
-        ) + if args.no_plane_blockers && *vis != Visibility::Triangles { "|no-planes" } else { "" }
-            + &args.time.map(|t| format!("|time={}", t.to_bits())).unwrap_or_default();
-        let r = measure::cached_reference(
-            args.reference_cache.as_deref(),
-            &args.scene,
-            &key,
-            *vis,
-            (w * h) as usize,
-            || measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against),
-        )?;
+        let cache = match &args.reference_cache {
+            Some(dir) => Some(measure::reference_cache_file(gpu, dir, &args.scene, scene, w, h, &run)?),
+            None => None,
+        };
+        let cached = cache.as_ref().filter(|p| p.exists()).map(|p| {
+            eprintln!("reference from the cache {}", p.display());
+            measure::ReferenceImage::load(p, *vis, (w * h) as usize)
+        });
+        let r = match cached {
+            Some(r) => r?,
+            None => {
+                let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
+                if let Some(p) = &cache {
+                    if let Some(dir) = p.parent() {
+                        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+                    }
+                    r.save(p)?;
+                }
+                r
+            }
+        };
         println!(
             "reference ({vis_name}): {} spp in {:.0} s, relative standard error {:.3} % ({}converged), {:.1} ms per sample per pixel-frame",
             r.report.samples,

@@ -443,12 +443,46 @@ impl Reader<'_> {
 
 /// FNV-1a, 64 bit (Fowler–Noll–Vo): a small, dependency-free checksum that catches corruption (not tampering).
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    let mut h = Fnv1a64::default();
+    h.bytes(bytes);
+    h.0
+}
+
+/// [`fnv1a64`] fed piece by piece: as a [`std::hash::Hasher`] (stable across Rust versions and runs, unlike
+/// `DefaultHasher`, so its values can name files on disk) and as a [`std::fmt::Write`] (so `write!(h, "{x:?}")`
+/// digests a value's `Debug` text without building the string).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fnv1a64(pub u64);
+
+impl Default for Fnv1a64 {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
     }
-    h
+}
+
+impl Fnv1a64 {
+    pub fn bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+impl std::hash::Hasher for Fnv1a64 {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        self.bytes(bytes);
+    }
+}
+
+impl std::fmt::Write for Fnv1a64 {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        self.bytes(s.as_bytes());
+        Ok(())
+    }
 }
 
 /// What is wrong with a table file.
@@ -548,6 +582,11 @@ mod tests {
         // Reference values of the FNV-1a 64 specification.
         assert_eq!(fnv1a64(b""), 0xcbf29ce484222325);
         assert_eq!(fnv1a64(b"a"), 0xaf63dc4c8601ec8c);
+        // Fed in pieces, as bytes or as formatted text, it is the same digest.
+        let mut h = Fnv1a64::default();
+        h.bytes(b"ab");
+        std::fmt::Write::write_fmt(&mut h, format_args!("c{}", 1)).unwrap();
+        assert_eq!(h.0, fnv1a64(b"abc1"));
         assert_eq!(fnv1a64(b"foobar"), 0x85944171f73967e8);
     }
 

@@ -263,6 +263,17 @@ pub struct GraphicsPipeline {
 }
 
 impl Gpu {
+    /// The sources a shader is compiled from: `path` (relative to `shaders-glsl`) and every file it includes,
+    /// recursively, each once (`(path, text)`).
+    pub fn shader_sources(&self, path: &str) -> Result<Vec<(String, String)>> {
+        self.compiler.include_closure(path)
+    }
+
+    /// The shaders (paths relative to `shaders-glsl`) this device has compiled so far, sorted.
+    pub fn compiled_shaders(&self) -> Vec<String> {
+        self.compiler.compiled()
+    }
+
     /// Compile `path` (relative to `shaders-glsl`) to SPIR-V only (cached), surfacing GLSL errors without paying
     /// for the driver's pipeline creation.
     pub fn compile_compute_shader(&self, path: &str, defines: &[(&str, &str)]) -> Result<()> {

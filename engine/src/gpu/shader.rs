@@ -65,8 +65,15 @@ impl ShaderCompiler {
         &self.root
     }
 
-    /// Hash the file and, recursively, every file it `#include`s (textual scan).
-    fn closure_hash(&self, rel: &str, h: &mut DefaultHasher, seen: &mut Vec<PathBuf>) -> Result<()> {
+    /// The source of `rel` and, recursively, of every file it `#include`s (textual scan), each once, in the order
+    /// first met: `(path relative to the root, text)`.
+    pub fn include_closure(&self, rel: &str) -> Result<Vec<(String, String)>> {
+        let mut out = Vec::new();
+        self.closure(rel, &mut out, &mut Vec::new())?;
+        Ok(out)
+    }
+
+    fn closure(&self, rel: &str, out: &mut Vec<(String, String)>, seen: &mut Vec<PathBuf>) -> Result<()> {
         let path = self.root.join(rel);
         let canon = path.canonicalize().unwrap_or(path.clone());
         if seen.contains(&canon) {
@@ -75,19 +82,27 @@ impl ShaderCompiler {
         seen.push(canon);
         let text = std::fs::read_to_string(&path)
             .map_err(|e| GpuError::Shader { path: path.display().to_string(), message: format!("cannot read: {e}") })?;
-        text.hash(h);
         let dir = Path::new(rel).parent().unwrap_or(Path::new(""));
-        for line in text.lines() {
-            let l = line.trim_start();
-            if let Some(rest) = l.strip_prefix("#include") {
-                if let Some(name) = rest.trim().strip_prefix('"').and_then(|r| r.split('"').next()) {
-                    let inc = dir.join(name);
-                    let inc = normalize(&inc);
-                    self.closure_hash(&inc.to_string_lossy(), h, seen)?;
-                }
-            }
+        let includes: Vec<PathBuf> = text
+            .lines()
+            .filter_map(|line| line.trim_start().strip_prefix("#include"))
+            .filter_map(|rest| rest.trim().strip_prefix('"').and_then(|r| r.split('"').next()))
+            .map(|name| normalize(&dir.join(name)))
+            .collect();
+        out.push((rel.to_string(), text));
+        for inc in includes {
+            self.closure(&inc.to_string_lossy(), out, seen)?;
         }
         Ok(())
+    }
+
+    /// The paths (relative to the root) of the shaders compiled so far by this compiler, sorted.
+    pub fn compiled(&self) -> Vec<String> {
+        let mut paths: Vec<String> =
+            self.memory.lock().map(|m| m.values().map(|i| i.path.clone()).collect()).unwrap_or_default();
+        paths.sort();
+        paths.dedup();
+        paths
     }
 
     /// Compile `rel` (relative to the shader root) with `defines`.
@@ -97,7 +112,9 @@ impl ShaderCompiler {
         rel.hash(&mut h);
         stage.hash(&mut h);
         defines.hash(&mut h);
-        self.closure_hash(rel, &mut h, &mut Vec::new())?;
+        for (_, text) in self.include_closure(rel)? {
+            text.hash(&mut h);
+        }
         let key = h.finish();
         if let Some(m) = self.memory.lock().ok().and_then(|m| m.get(&key).cloned()) {
             return Ok(m);

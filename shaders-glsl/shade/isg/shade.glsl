@@ -184,17 +184,112 @@ float isg_light_visibility(IsgGrid g, bool outside, vec3 axis, float sin_alpha, 
     return (isg_mask[i] >> uint(j) & 1u) != 0u ? 0.0 : 1.0;
 }
 
-// Σ over the lights of their unshadowed radiance times their visibility in the hemisphere grid
-// (isg_mask).
-vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g) {
+// A light whose cap is narrower than this half-angle is seen on a grid of its own (isg_small_light_visibility),
+// wider ones on the hemisphere grid.
+const float ISG_LIGHT_OWN_GRID = 0.25 * ISG_PI;
+const float ISG_SQRT2 = 1.41421356237310;
+// Patches per side of a light's own grid.
+const int ISG_LIGHT_SIDE = 8;
+
+// Visibility of a light's cap (unit axis, half-angle alpha < π/2) on a grid of its own: ISG_LIGHT_SIDE²
+// patches over (θ, φ) ∈ [π/2 − α, π/2 + α]² around its axis (Γ = α), blockers marked as for a lobe (its own
+// traversal, nodes below node_threshold of its patch width taken whole), then 1 − Σ_occluded C_p / Σ C_p over
+// the patches whose centres lie in the cap, C_p = the patch's solid angle (cos θ0 − cos θ1) δ times (n·ω)⁺ at
+// its centre. On the hemisphere grid (δ = π/32 at P = 32) a light of 0.14 rad covers about six patches, so a
+// penumbra's visibility came in sixths and its darkest sixth went black where the light was still partly seen
+// (issue 35: `spheres`); here the cap covers about fifty patches whatever its size. f64 twin:
+// isg::cpu::light_visibility.
+float isg_small_light_visibility(vec3 p, vec3 n, vec3 axis, float alpha, IsgSettings st, uint spheres) {
+    IsgGrid g;
+    g.z = axis;
+    orthonormal_basis(axis, g.x, g.y);
+    g.side = ISG_LIGHT_SIDE;
+    g.lo = ISG_HALF_PI - alpha;
+    g.delta = 2.0 * alpha / float(g.side);
+    float c = cos(alpha);
+    g.cone = acos(clamp(c * c, 0.0, 1.0));
+    isg_mask_clear();
+    if (spheres > 0u) isg_mark_traversed(g, p, n, st.node_threshold * g.delta, spheres);
+    isg_thin_mark(g);
+    isg_planes_mark(g);
+    uint any = 0u;
+    for (int i = 0; i < g.side; ++i) any |= isg_mask[i];
+    if (any == 0u) return 1.0;  // nothing in the light's cone (most receivers): no weights to sum
+    vec4 uc = isg_cap_coords(g, axis);
+    // n in the grid's frame, and the rotation by δ that steps a patch centre's φ along a row.
+    vec3 nl = vec3(dot(n, g.x), dot(n, g.y), dot(n, g.z));
+    vec2 step = vec2(cos(g.delta), sin(g.delta));
+    float total = 0.0;
+    float occluded = 0.0;
+    for (int i = 0; i < g.side; ++i) {
+        // The cap's patches in a row of a grid centred on it are one run of bits.
+        uint cap = isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, c);
+        if (cap == 0u) continue;
+        int j0 = findLSB(cap);
+        int j1 = findMSB(cap);
+        float t0 = g.lo + float(i) * g.delta;
+        float th = t0 + 0.5 * g.delta;
+        float row = (cos(t0) - cos(t0 + g.delta)) * g.delta;
+        float st_ = sin(th);
+        float ny = nl.y * cos(th);
+        float ph = g.lo + (float(j0) + 0.5) * g.delta;
+        vec2 cs = vec2(cos(ph), sin(ph));
+        uint hidden = isg_mask[i];
+        for (int j = j0; j <= j1; ++j) {
+            float w = row * max(st_ * (nl.x * cs.x + nl.z * cs.y) + ny, 0.0);
+            total += w;
+            if ((hidden >> uint(j) & 1u) != 0u) occluded += w;
+            cs = vec2(cs.x * step.x - cs.y * step.y, cs.y * step.x + cs.x * step.y);
+        }
+    }
+    return total > 0.0 ? clamp(1.0 - occluded / total, 0.0, 1.0) : 1.0;
+}
+
+// Whether any occluded patch of the hemisphere grid (isg_mask) has its centre within psi of unit u.
+bool isg_cap_touches_mask(IsgGrid g, vec3 u, float psi) {
+    vec4 uc = isg_cap_coords(g, u);
+    float cos_psi = cos(psi);
+    ivec2 rows = isg_cap_rows(g, psi, uc);
+    for (int i = rows.x; i <= rows.y; ++i) {
+        if ((isg_cap_row_bits(g, i, uc.x, uc.y, uc.z, cos_psi) & isg_mask[i]) != 0u) return true;
+    }
+    return false;
+}
+
+// Σ over the lights of their unshadowed radiance times their visibility, with the hemisphere grid g and its
+// occluded patches (isg_mask) marked when `occluders`. A light narrower than ISG_LIGHT_OWN_GRID is seen on its
+// own grid (isg_small_light_visibility) unless no occluded patch of the hemisphere grid lies within its cap
+// grown by a patch diagonal (V = 1: most receivers; a blocker of half-angle at least half a patch diagonal
+// that overlaps the cap holds such a patch); the others in the hemisphere grid. The own grids reuse isg_mask,
+// so they run after every light that reads the hemisphere grid (lights 32 and on: the hemisphere grid only).
+vec3 isg_lights(ShadePoint sp, bool occluders, IsgGrid g, IsgSettings st, uint spheres) {
     SpecLobe lobes[BRDF_MAX_LOBES];
     int count = brdf_specular_lobes(sp.material, sp.normal, sp.view, lobes);
     vec3 sum = vec3(0.0);
+    uint own = 0u;
     for (uint j = 0u; j < light_count; ++j) {
         vec3 axis;
         float sa, ca;
         bool outside = light_cap(j, sp.position, axis, sa, ca);
-        float v = occluders ? isg_light_visibility(g, outside, axis, sa, ca) : 1.0;
+        float alpha = atan(sa, ca);
+        float v = 1.0;
+        if (occluders && outside && alpha < ISG_LIGHT_OWN_GRID && j < 32u) {
+            if (isg_cap_touches_mask(g, axis, alpha + ISG_SQRT2 * g.delta)) {
+                own |= 1u << j;
+                continue;
+            }
+        } else if (occluders) {
+            v = isg_light_visibility(g, outside, axis, sa, ca);
+        }
+        if (v > 0.0) sum += v * light_unshadowed(sp, j, lobes, count, outside, axis, sa, ca);
+    }
+    while (own != 0u) {
+        uint j = uint(findLSB(own));
+        own &= own - 1u;
+        vec3 axis;
+        float sa, ca;
+        bool outside = light_cap(j, sp.position, axis, sa, ca);
+        float v = isg_small_light_visibility(sp.position, sp.normal, axis, atan(sa, ca), st, spheres);
         if (v > 0.0) sum += v * light_unshadowed(sp, j, lobes, count, outside, axis, sa, ca);
     }
     return sum;
@@ -276,7 +371,7 @@ vec3 shade_point_radiance(ShadePoint sp) {
     if (occluders && (diffuse_mode == 2u || light_count > 0u)) hemi = isg_hemisphere_mask(sp.position, n, st, spheres);
     if (diffuse_mode == 2u) e = occluders ? isg_map_irradiance(n, hemi) : irradiance_lookup(irradiance_map, n);
     vec3 result = sp.material.diffuse.rgb / PI * e;
-    if (light_count > 0u) result += isg_lights(sp, occluders, hemi);
+    if (light_count > 0u) result += isg_lights(sp, occluders, hemi, st, spheres);
 
     vec3 ks = sp.material.specular.rgb;
     if (all(equal(ks, vec3(0.0)))) return result;

@@ -26,7 +26,7 @@ layout(push_constant) uniform Params {
     uint env_height;
     uint visibility;   // 0 triangles, 1 none (unoccluded), 2 blocker spheres
     uint item_count;
-    float ray_offset;  // world units, along the normal
+    float ray_offset;  // along the normal, relative to g_coordinate_scale
     float env_total;   // 0: the environment is black (no environment sampling)
     uint sphere_count;
     float pad0;
@@ -167,22 +167,34 @@ float light_hit(uint j, vec3 p, vec3 d) {
 float visible_until(vec3 o, vec3 d, float t_max) {
     if (params.visibility == 1u) return t_max;
     if (params.visibility == 2u)
-        return trace_planes(o, d, trace_thin(o, d, trace_spheres(o, d, t_max, params.sphere_count, false), false), false);
-    return trace_triangles(o, d, t_max, false);
+        return trace_planes(o, d, trace_thin(o, d, trace_spheres(o, d, t_max, params.sphere_count, false), false, true),
+                            false);
+    // The truth: the solid meshes' BVH and the thin meshes' live triangles, each hit exactly.
+    return trace_thin(o, d, trace_triangles(o, d, t_max, false), false, false);
 }
 
 bool unoccluded(vec3 o, vec3 d, float t_max) {
     if (params.visibility == 1u) return true;
     if (params.visibility == 2u)
-        return trace_spheres(o, d, t_max, params.sphere_count, true) >= t_max && trace_thin(o, d, t_max, true) >= t_max &&
-               trace_planes(o, d, t_max, true) >= t_max;
-    return trace_triangles(o, d, t_max, true) >= t_max;
+        return trace_spheres(o, d, t_max, params.sphere_count, true) >= t_max &&
+               trace_thin(o, d, t_max, true, true) >= t_max && trace_planes(o, d, t_max, true) >= t_max;
+    return trace_triangles(o, d, t_max, true) >= t_max && trace_thin(o, d, t_max, true, false) >= t_max;
 }
 
 // Power heuristic weight of a strategy with density pa against one with pb.
 float power_weight(float pa, float pb) {
     float r = pb / pa;
     return 1.0 / (1.0 + r * r);
+}
+
+// The magnitude of the coordinates the shading point was computed from (set by pixel.comp and vertex.comp):
+// its rounding error, and the intersection's near it, scale with them (pbrt-v4 bounds a hit point's error by
+// γ_n Σ |b_i p_i|), not with the scene's size.
+float g_coordinate_scale = 1.0;
+
+float max_abs(vec3 v) {
+    vec3 a = abs(v);
+    return max(a.x, max(a.y, a.z));
 }
 
 // One sample of L_o: one environment sample, one light sample, one BRDF sample.
@@ -194,7 +206,7 @@ vec3 reference_sample(ShadePoint sp, inout uint rng) {
     // spawn_ray do (the shading normal may lean over the triangle's plane). Those move to the ray's
     // side; with reflection-only BRDFs the viewer's side is used for every ray, so a direction above
     // the shading plane but below the triangle's meets the surface itself instead of leaking through.
-    vec3 o = sp.position + params.ray_offset * sp.geometric;
+    vec3 o = sp.position + params.ray_offset * g_coordinate_scale * sp.geometric;
     g_receiver_p = sp.position;
     g_receiver_n = n;
     float p_spec = specular_choice(m);

@@ -7,6 +7,7 @@ layout(binding = 3, rgba32f) uniform readonly image2D gbuf_position;
 layout(binding = 4, rgba32f) uniform readonly image2D gbuf_normal;
 layout(binding = 5, rgba32f) uniform writeonly image2D radiance;
 layout(binding = 18, rgba32f) uniform readonly image2D gbuf_geometric;
+layout(std430, binding = 19) readonly buffer WorldVertices { Vertex world[]; };
 
 // As in target_pixel.glsl.
 vec3 camera_ray(ivec2 px) {
@@ -29,7 +30,11 @@ void main() {
         ShadePoint sp;
         sp.position = p.xyz;
         sp.normal = normalize(nrm);
-        sp.geometric = imageLoad(gbuf_geometric, px).xyz;
+        vec4 geo = imageLoad(gbuf_geometric, px);
+        sp.geometric = geo.xyz;
+        // The G-buffer interpolated the position from its triangle's vertices (w: the first one's index).
+        uint v0 = uint(max(geo.w, 0.0));
+        g_coordinate_scale = max(max_abs(p.xyz), v0 < uint(world.length()) ? max_abs(world[v0].position) : 0.0);
         sp.view = normalize(frame.eye.xyz - p.xyz);
         sp.material = materials[uint(p.w - 0.5)];
         result = accumulate(item, sp);

@@ -127,9 +127,12 @@ vec3 g_receiver_n = vec3(0.0, 1.0, 0.0);
 // Nearest entry distance in (0, t_max) into a blocker sphere, or t_max. Each leaf sphere is first
 // replaced by its blocker for the receiver (eliminated behind the tangent plane, shrunk to tangency
 // when the receiver is inside, the tangent sphere in front when it straddles); the replacement lies
-// inside the original, so the BVH's bounds stay conservative. Only spheres the ray enters in front of
-// the origin count. Overflow of the node stack takes the node's bounding sphere whole (conservative, as
-// in bvh.glsl); with the LBVH's depth bound it never happens.
+// inside the original, so the BVH's bounds stay conservative. A blocker counts when the ray from the
+// receiver itself, not from the offset origin o, enters it in front of the receiver: a blocker tangent
+// to T_p next to p holds o (o is p moved along the normal), and traced from o it was never entered,
+// so a ground point under a bunny sphere's centre, hidden by the proxy (and by isg), came out lit
+// (issue 35). Overflow of the node stack takes the node's bounding sphere whole (conservative, as in
+// bvh.glsl); with the LBVH's depth bound it never happens.
 float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit) {
     float best = t_max;
     BvhCursor c = bvh_cursor_begin(sphere_count);
@@ -144,7 +147,7 @@ float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit
         if (leaf) {
             vec4 blk;
             if (!blocker_for_receiver(g_receiver_p, g_receiver_n, s, blk) || blk.w <= 0.0) continue;
-            t = ray_sphere(o, d, blk);
+            t = ray_sphere(g_receiver_p, d, blk);
             if (t.x > t.y || t.y <= 0.0 || t.x >= best) continue;
         }
         if (t.x > 0.0) {
@@ -156,15 +159,17 @@ float trace_spheres(vec3 o, vec3 d, float t_max, uint sphere_count, bool any_hit
 }
 
 // ---- thin shells: the world-space triangles of meshes marked thin (written every frame by the
-// thin_shells pass) are their own proxy, seen through the same rule as in ISG (thin.glsl: a triangle
-// whose plane passes within ε of the receiver, or of zero area, does not block it) ----
+// thin_shells pass, so a simulated cloth is where the G-buffer draws it). For the sphere proxy they are
+// their own proxy, seen through the same rule as in ISG (thin.glsl: a triangle whose plane passes within
+// ε of the receiver, or of zero area, does not block it); for the triangle truth they are hit exactly,
+// like the triangles of the BVH (the triangle BVH leaves them out) ----
 #include "../../common/thin.glsl"
 layout(std430, binding = 16) readonly buffer ThinTriangles { ThinTriangle thin_triangles[]; };
 layout(std430, binding = 17) readonly buffer ThinClusters { ThinCluster thin_clusters[]; };
 
-// Nearest hit distance in (0, t_max) on a thin triangle that blocks the receiver, or t_max. Clusters
-// are culled by their bounding spheres.
-float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
+// Nearest hit distance in (0, t_max) on a thin triangle (one that blocks the receiver, with
+// `receiver_rule`), or t_max. Clusters are culled by their bounding spheres.
+float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit, bool receiver_rule) {
     float best = t_max;
     if (thin_clusters[0].count == 0u) return best;
     uint clusters = uint(thin_clusters.length());
@@ -177,7 +182,8 @@ float trace_thin(vec3 o, vec3 d, float t_max, bool any_hit) {
             ThinTriangle tri = thin_triangles[i];
             float orient;
             vec3 p = g_receiver_p;
-            if (!thin_blocks_receiver(tri.v0.xyz - p, tri.v1.xyz - p, tri.v2.xyz - p, orient)) continue;
+            if (receiver_rule && !thin_blocks_receiver(tri.v0.xyz - p, tri.v1.xyz - p, tri.v2.xyz - p, orient))
+                continue;
             float h = intersect_triangle(o, d, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, best);
             if (h > 0.0) {
                 best = h;

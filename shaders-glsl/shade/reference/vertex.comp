@@ -17,6 +17,7 @@ void main() {
     } else {
         ShadePoint sp;
         sp.position = v.position.xyz;
+        g_coordinate_scale = max_abs(v.position.xyz);
         sp.view = normalize(frame.eye.xyz - v.position.xyz);
         n = normalize(n);
         // As target_vertex.glsl: the vertex normal is both normals.

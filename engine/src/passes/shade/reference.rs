@@ -4,7 +4,8 @@
 //! solid angle, marginal and conditional CDFs built here), light sampling (uniform in the cone a
 //! sphere subtends) and BRDF sampling (cosine / Blinn-Phong lobe), combined by the power heuristic.
 //! Visibility is traced against the real triangles through a binned-SAH BVH
-//! ([`crate::scene::triangle_bvh`]) or switched off ([`Visibility::Unoccluded`]).
+//! ([`crate::scene::triangle_bvh`]) plus the live triangles of thin meshes, against the sphere proxies, or
+//! switched off ([`Visibility::Unoccluded`]).
 //!
 //! Samples are deterministic (PCG hash of item, sample index and seed) and accumulate over frames
 //! (Welford mean and M2 per item in device buffers) until the view changes, so the engine knows the
@@ -16,7 +17,8 @@ use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::resources::blockers::GpuVertexSkin;
 use crate::resources::layout::{FrameData, GpuObject, GpuVertex};
 use crate::resources::Geometry;
-use crate::scene::triangle_bvh::{TriNode, TriangleBvh};
+use crate::resources::ThinResources;
+use crate::scene::triangle_bvh::TriangleBvh;
 use bytemuck::{Pod, Zeroable};
 use engine_math::envmap::{texel_solid_angle, LatLongMap};
 use glam::{Mat4, Vec3, Vec4};
@@ -38,6 +40,41 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     },
     create: |gpu, _| Ok(Box::new(Reference::new(gpu)?)),
 };
+
+/// The version of the reference's host code (sampling tables, what the triangle BVH holds, how samples are
+/// merged): bumped whenever a change alters its images, so that references cached on disk
+/// (`compare --reference-cache`) are not reused across it. Its shaders need no bump: caches key their sources
+/// ([`FRAME_SHADERS`]). 2: thin meshes (a simulated cloth) traced live, not from the posed rest mesh; 3: the ray
+/// offset relative to the shading point's coordinates, not the scene's diagonal (both issue 35).
+pub const REFERENCE_CODE_VERSION: u32 = 3;
+
+/// Every shader a renderer with the reference technique compiles (its own and the frame's passes), paths relative
+/// to `shaders-glsl`: with their includes, the shader sources a reference image depends on
+/// (tests/tests/reference.rs checks that the list is complete).
+pub const FRAME_SHADERS: &[&str] = &[
+    "blocker_bvh/bounds.comp",
+    "blocker_bvh/hierarchy.comp",
+    "blocker_bvh/morton.comp",
+    "blocker_bvh/radix_count.comp",
+    "blocker_bvh/radix_scan.comp",
+    "blocker_bvh/radix_scatter.comp",
+    "blocker_bvh/refit.comp",
+    "blocker_spheres/animate.comp",
+    "cloth/finish.comp",
+    "cloth/predict.comp",
+    "cloth/reset.comp",
+    "cloth/solve.comp",
+    "cloth/spheres.comp",
+    "cloth/write.comp",
+    "gbuffer/gbuffer.frag",
+    "gbuffer/gbuffer.vert",
+    "shade/compose.comp",
+    "shade/reference/pixel.comp",
+    "shade/reference/vertex.comp",
+    "skin/skin.comp",
+    "thin_shells/triangles.comp",
+    "tonemap/tonemap.comp",
+];
 
 /// Push constants (`Params` in integrate.glsl).
 #[repr(C)]
@@ -61,7 +98,9 @@ pub struct ReferenceParams {
 /// What blocks the rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Visibility {
-    /// The scene's triangles (the ground truth).
+    /// The scene's triangles (the ground truth): those of solid meshes through the host-built BVH at the
+    /// frame's pose, those of thin meshes (a simulated cloth) as the `thin_shells` pass writes them every frame,
+    /// each hit exactly (no self-shadowing rule; the ray offset is the only guard).
     Triangles,
     /// Nothing (unshadowed lighting, for the decomposition of error and closed-form checks).
     Unoccluded,
@@ -83,14 +122,19 @@ pub struct ReferenceOptions {
     pub samples_per_frame: u32,
     pub seed: u32,
     pub visibility: Visibility,
-    /// Ray origins move this far along the normal, as a fraction of the scene's bounding-box
-    /// diagonal (self-intersection guard; contact shadows closer than this are lost).
+    /// Ray origins move along the geometric normal by this fraction of the magnitude of the coordinates the
+    /// shading point was interpolated from (the larger of |p|∞ and its triangle's first vertex's |v|∞), the
+    /// scale of its rounding error (self-intersection guard; contact shadows closer than this are lost).
+    /// 5e-5 is about 400 f32 ulps: 0.1 mm at 2 m from the origin. It used to be a fraction (1e-4) of the
+    /// scene's bounding-box diagonal, which a 2 km ground plane made 0.28 m: origins under a ball resting
+    /// above it moved into the ball, and the triangle reference went black there (issue 35, the gate's
+    /// `ball-above-*` fixtures).
     pub ray_offset: f32,
 }
 
 impl Default for ReferenceOptions {
     fn default() -> Self {
-        Self { samples_per_frame: 4, seed: 1, visibility: Visibility::Triangles, ray_offset: 1e-4 }
+        Self { samples_per_frame: 4, seed: 1, visibility: Visibility::Triangles, ray_offset: 5e-5 }
     }
 }
 
@@ -223,16 +267,25 @@ struct RestGeometry {
     skins: Vec<GpuVertexSkin>,
     indices: Vec<u32>,
     bone_count: usize,
+    /// Per scene triangle: whether it is a thin shell's (traced live from `ThinResources::triangles`).
+    thin: Vec<bool>,
 }
 
 impl RestGeometry {
-    fn read(gpu: &Gpu, scene: &Geometry) -> Result<Self> {
+    fn read(gpu: &Gpu, scene: &Geometry, thin: &ThinResources) -> Result<Self> {
         let mut vertices: Vec<GpuVertex> = gpu.read_buffer(&scene.vertices)?;
         let mut indices: Vec<u32> = gpu.read_buffer(&scene.indices)?;
         let skins: Vec<GpuVertexSkin> = gpu.read_buffer(&scene.vertex_skins)?;
         vertices.truncate(scene.vertex_count as usize);
         indices.truncate(scene.index_count as usize);
-        Ok(Self { vertices, skins, indices, bone_count: scene.bone_count as usize })
+        // The thin triangles hold the scene's vertex indices (resources::thin::gather), so a scene triangle is
+        // thin when its index triple is one of theirs.
+        let thin_indices: Vec<[u32; 4]> =
+            if thin.triangle_count == 0 { Vec::new() } else { gpu.read_buffer(&thin.indices)? };
+        let thin_set: std::collections::HashSet<[u32; 3]> =
+            thin_indices.iter().take(thin.triangle_count as usize).map(|t| [t[0], t[1], t[2]]).collect();
+        let thin = indices.chunks_exact(3).map(|t| thin_set.contains(&[t[0], t[1], t[2]])).collect();
+        Ok(Self { vertices, skins, indices, bone_count: scene.bone_count as usize, thin })
     }
 
     /// World-space triangles at `pose`, by the skin pass's formula ([`skinned_position`]).
@@ -286,27 +339,28 @@ impl Pose {
     }
 }
 
-/// The triangle BVH in device memory and the world-space triangles it was built from (scene index order).
+/// The triangle BVH in device memory and the world-space triangles of the pose it was built for (scene index
+/// order, thin triangles included). The BVH holds only the triangles of meshes that are not thin: those of thin
+/// meshes (a simulated cloth above all) are traced from their world-space triangles that the `thin_shells` pass
+/// rewrites every frame, the triangles the G-buffer rasterises, which a host-posed copy of the rest mesh is not.
 struct PosedTriangles {
     nodes: Buffer,
     triangles: Buffer,
     pose: Pose,
     world: Vec<[Vec3; 3]>,
-    scene_diagonal: f32,
 }
 
 impl PosedTriangles {
     fn build(gpu: &Gpu, rest: &RestGeometry, pose: Pose) -> Result<Self> {
         let world = rest.world_triangles(&pose)?;
-        let bvh = TriangleBvh::build(&world);
+        let solid: Vec<[Vec3; 3]> = world.iter().zip(&rest.thin).filter(|(_, thin)| !**thin).map(|(t, _)| *t).collect();
+        let bvh = TriangleBvh::build(&solid);
         let depth = bvh.depth();
         if depth >= TRACE_STACK {
             return Err(GpuError::Other(format!(
                 "reference: triangle BVH depth {depth} exceeds the traversal stack ({TRACE_STACK})"
             )));
         }
-        let scene_diagonal =
-            bvh.nodes.first().map_or(1.0, |n: &TriNode| (Vec3::from(n.hi) - Vec3::from(n.lo)).length());
         let nodes = gpu.upload_buffer("reference-bvh-nodes", BufferDesc::gpu_only(0), &bvh.nodes)?;
         let triangles = match gpu.upload_buffer("reference-bvh-triangles", BufferDesc::gpu_only(0), &bvh.triangles) {
             Ok(t) => t,
@@ -315,7 +369,7 @@ impl PosedTriangles {
                 return Err(e);
             }
         };
-        Ok(Self { nodes, triangles, pose, world, scene_diagonal })
+        Ok(Self { nodes, triangles, pose, world })
     }
 
     fn destroy(self, gpu: &Gpu) {
@@ -484,7 +538,7 @@ impl Reference {
     fn build_tables(gpu: &Gpu, inputs: &ShadeInputs) -> Result<Tables> {
         let env = EnvSampling::build(&inputs.environment.cpu)?;
         let geometry = inputs.geometry()?;
-        let rest = RestGeometry::read(gpu, geometry)?;
+        let rest = RestGeometry::read(gpu, geometry, inputs.thin()?)?;
         // The pose the scene has now (its initial bones and transforms, or the last set_bones): the G-buffer's.
         let triangles = PosedTriangles::build(gpu, &rest, Pose::read(geometry)?)?;
         let mut made: Vec<Buffer> = Vec::new();
@@ -535,10 +589,18 @@ impl Reference {
         Ok(())
     }
 
-    /// The world-space triangles (scene index order) the triangle BVH holds: the pose of the last recorded
-    /// frame, or of `prepare` before any. What the rays see, for tests against the skin pass.
+    /// The world-space triangles (scene index order) of the pose the triangle BVH was built for: the pose of the
+    /// last recorded frame, or of `prepare` before any. What the rays see, for tests against the skin pass, except
+    /// the thin meshes' triangles (see [`Reference::thin_triangles`]), which the rays see as the `thin_shells`
+    /// pass writes them.
     pub fn posed_triangles(&self) -> Option<Ref<'_, [[Vec3; 3]]>> {
         self.tables.as_ref().map(|t| Ref::map(t.triangles.borrow(), |p| p.world.as_slice()))
+    }
+
+    /// Per scene triangle (index order), whether it belongs to a thin mesh: left out of the triangle BVH and
+    /// traced from the live thin triangles instead (`None` before `prepare`).
+    pub fn thin_triangles(&self) -> Option<&[bool]> {
+        self.tables.as_ref().map(|t| t.rest.thin.as_slice())
     }
 
     /// Samples the next frames add per item, keeping what is accumulated (integrate.glsl merges batches of any
@@ -614,7 +676,7 @@ impl Technique for Reference {
                 Visibility::Spheres => 2,
             },
             item_count: items,
-            ray_offset: self.options.ray_offset * posed.scene_diagonal,
+            ray_offset: self.options.ray_offset,
             env_total: t.env_total,
             sphere_count: blockers.sphere_count,
             pad0: 0.0,
@@ -652,6 +714,7 @@ impl Technique for Reference {
                 b.push(Binding::storage_image("gbuf_normal", &gbuffer.normal));
                 b.push(Binding::storage_image("gbuf_geometric", &gbuffer.geometric));
                 b.push(Binding::storage_image("radiance", radiance));
+                b.push(Binding::buffer("WorldVertices", &inputs.geometry()?.world_vertices));
                 let pipeline = self.pipelines.pixel(rec.gpu())?;
                 rec.dispatch(pipeline, &b, push, [radiance.desc.width, radiance.desc.height, 1])?;
             }
