@@ -29,8 +29,8 @@
 // - environment: diffuse ρ/π max(E(n) − S_env, 0), E the shared irradiance, S_env from the same
 //   mask machinery about n against the cosine lobe, each shadow leaf's product weighted by the
 //   prefiltered environment at its axis (as isg's diffuse=map weighs its patches); plane blockers
-//   multiply by their cosine-weighted visibility (exact for half-spaces, an equal-solid-angle cap
-//   lobe for rectangles). Glossy: the shared prefiltered
+//   multiply by their visibility: 1 − o/π (o their exact cosine-weighted solid angle) weighted by the
+//   environment light they hide and leave free (lobes_env_planes). Glossy: the shared prefiltered
 //   term times the diffuse visibility (luminance ratio).
 // Overflow (more blockers in a mask's cone than LOBES_MAX_BLOCKERS after the coarsest cut) is counted in LobesStats.
 #include "../common.glsl"
@@ -517,66 +517,84 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
     return shadow;
 }
 
-// The cone mean direction of a rectangle seen from the origin (Arvo: ½ Σ Θ_e n_e), towards c.
-vec3 lobes_cone_mean(vec3 a[4], vec3 c) {
-    vec3 mean = vec3(0.0);
-    for (int k = 0; k < 4; ++k) {
-        vec3 x = cross(a[k], a[(k + 1) & 3]);
-        float lx = length(x);
-        if (lx > 0.0) mean += 0.5 * atan(lx, dot(a[k], a[(k + 1) & 3])) * x / lx;
+// The radiance-weighting samples of the planes' environment term: LOBES_PLANE_SAMPLES directions about n,
+// distributed as the cosine (a golden-angle spiral on the unit disc lifted to the hemisphere), each read from
+// the prefiltered environment at the atlas level of λ = LOBES_PLANE_SAMPLES (an SG footprint of about one
+// sample's share 2π/N of the hemisphere). A sample's blocked fraction ramps linearly over ±LOBES_PLANE_SOFT
+// (sine of the angle) across a plane's boundary, so that the weights move smoothly with n.
+#define LOBES_PLANE_SAMPLES 32
+const float LOBES_PLANE_SOFT = 0.1;
+const float LOBES_GOLDEN_ANGLE = 2.39996323;
+
+vec3 lobes_plane_sample(int i, vec3 n, vec3 t, vec3 b) {
+    float r2 = (float(i) + 0.5) / float(LOBES_PLANE_SAMPLES);
+    float phi = float(i) * LOBES_GOLDEN_ANGLE;
+    return normalize(sqrt(r2) * (cos(phi) * t + sin(phi) * b) + sqrt(1.0 - r2) * n);
+}
+
+// The blocked fraction of sample direction w for plane pl seen from p (edge normals e of a rectangle).
+float lobes_plane_blocked(BlockerPlane pl, vec3 e[4], vec3 w) {
+    float inside;
+    if (plane_is_rectangle(pl)) {
+        inside = min(min(dot(w, e[0]), dot(w, e[1])), min(dot(w, e[2]), dot(w, e[3])));
+    } else {
+        inside = -dot(w, pl.plane.xyz);
     }
-    if (dot(mean, c) < 0.0) mean = -mean;
-    return dot(mean, mean) > 0.0 ? normalize(mean) : normalize(c);
+    return clamp(0.5 + 0.5 * inside / LOBES_PLANE_SOFT, 0.0, 1.0);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Environment: the same quad-tree mask about n over the widest square (half-angle 1.4 rad: the
 // directions within 10° of the horizon, 3 % of the cosine-weighted hemisphere, are not masked;
 // one level deeper than the lights' masks: its cells around n are wide). Plane blockers are left out of
-// the mask: each blocks a cosine-weighted solid angle o of the hemisphere of n, exactly π(1 − n·m)/2 for
-// a half-space, for a rectangle the occlusion of the energy-scaled cap lobe of its solid angle about its
-// mean direction (× the cosine lobe). lobes_env_planes returns Π (1 − o/π), their visibility under a
-// constant environment (env=lobes uses it), and in `weighted` Π (1 − o L̄/E(n)) per channel, each plane's
-// o weighted by the prefiltered environment L̄ about the directions it blocks (the rectangle's mean
-// direction at its cap lobe's sharpness; for a half-space the direction normalize(n − m) between n and
-// the plane's inside, at λ = 2π/∠(n, m): a footprint of half the blocked lune's solid angle 2∠(n, m), so
-// that little of the unblocked side leaks in): a ground under a bright sky
-// hides the dark lower half, not a share of the whole hemisphere's light (env=map).
-float lobes_env_planes(vec3 p, vec3 n, vec3 e_free, out vec3 weighted) {
+// the mask: each blocks a cosine-weighted solid angle o of the hemisphere of n, exactly: π(1 − n·m)/2 for a
+// half-space, Lambert's formula over the clipped plate for a rectangle. lobes_env_planes returns Π (1 − o/π),
+// their visibility under a constant environment (env=lobes uses it), and in `weighted` per channel
+// Π (π − o) L̄_V / ((π − o) L̄_V + o L̄_B): L̄_B and L̄_V the mean prefiltered radiance of the cosine-distributed
+// samples the plane blocks and leaves free (each sample weighted by its blocked fraction). A ground under a
+// bright sky hides the dark lower half, not a share of the whole hemisphere's light (env=map). The visible and
+// the blocked light are each estimated from their own directions, and the factor is their ratio: it stays in
+// [0, 1] per channel and equals 1 − o/π under a constant environment. The factor it replaced,
+// clamp(1 − o L̄/E(n), 0, 1) with L̄ one lookup about the plate's mean direction at its cap lobe's sharpness,
+// read the whole sphere's light (sky included) once a plate filled the hemisphere (the cap lobe's exponent
+// → 0 as its half-angle → π/2), so o L̄ passed E(n) under downward-facing receivers near the ground: blue, then
+// every channel, clamped to 0 (the orange blotches and black pixels of issue 37 on bunny, chess and battle).
+float lobes_env_planes(vec3 p, vec3 n, out vec3 weighted) {
     float v_hs = 1.0;
     weighted = vec3(1.0);
+    bool any = false;
+    for (uint i = 0u; i < plane_count; ++i) any = any || plane_blocks_receiver(blocker_planes[i], p);
+    if (!any) return v_hs;
+    vec3 t, b;
+    orthonormal_basis(n, t, b);
+    vec3 radiance[LOBES_PLANE_SAMPLES];
+    float level = prefiltered_nearest_level(float(LOBES_PLANE_SAMPLES));
+    for (int k = 0; k < LOBES_PLANE_SAMPLES; ++k) {
+        radiance[k] = prefiltered_level(prefiltered_env, lobes_plane_sample(k, n, t, b), level);
+    }
     for (uint i = 0u; i < plane_count; ++i) {
         BlockerPlane pl = blocker_planes[i];
         if (!plane_blocks_receiver(pl, p)) continue;
-        float o;
-        vec3 dir;
-        float lambda;
-        if (plane_is_rectangle(pl)) {
-            // The cap of the plate's solid angle Ω (1 − cos α = Ω/2π) about its cone's mean
-            // direction, as its energy-scaled cap lobe × the cosine lobe.
-            vec3 c = pl.center.xyz - p;
-            vec3 a[4] = vec3[4](c - pl.half_u.xyz - pl.half_v.xyz, c + pl.half_u.xyz - pl.half_v.xyz,
-                                c + pl.half_u.xyz + pl.half_v.xyz, c - pl.half_u.xyz + pl.half_v.xyz);
-            float omega = lobes_triangle_solid_angle(a[0], a[1], a[2]) + lobes_triangle_solid_angle(a[0], a[2], a[3]);
-            float alpha = acos(clamp(1.0 - omega / (2.0 * PI), -1.0, 1.0));
-            dir = lobes_cone_mean(a, c);
-            Lobe cap = lobes_cap_lobe(dir, alpha, vec3(1.0), true, 1.0);
-            Lobe cosine;
-            cosine.axis = n;
-            cosine.e = 1.0;
-            cosine.s = vec3(1.0);
-            o = lobes_hemisphere_integral(lobes_mul(cap, cosine), n).x;
-            lambda = cap.e;
-        } else {
-            float nm = clamp(dot(n, pl.plane.xyz), -1.0, 1.0);
-            o = 0.5 * PI * (1.0 - nm);
-            vec3 d = n - pl.plane.xyz;
-            dir = dot(d, d) > 1e-12 ? normalize(d) : -pl.plane.xyz;
-            lambda = 2.0 * PI / max(acos(nm), 1e-3);
-        }
+        float o = plane_projected_solid_angle(pl, p, n);
+        vec3 e[4] = vec3[4](vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0));
+        if (plane_is_rectangle(pl)) plane_edge_normals(pl, p, e);
         v_hs *= clamp(1.0 - o / PI, 0.0, 1.0);
-        vec3 occluded = o * prefiltered_lookup(prefiltered_env, dir, max(lambda, 0.25));
-        weighted *= clamp(vec3(1.0) - occluded / max(e_free, vec3(1e-30)), 0.0, 1.0);
+        vec3 sum_b = vec3(0.0), sum_v = vec3(0.0);
+        float w_b = 0.0, w_v = 0.0;
+        for (int k = 0; k < LOBES_PLANE_SAMPLES; ++k) {
+            float f = lobes_plane_blocked(pl, e, lobes_plane_sample(k, n, t, b));
+            sum_b += f * radiance[k];
+            sum_v += (1.0 - f) * radiance[k];
+            w_b += f;
+            w_v += 1.0 - f;
+        }
+        // A side no sample falls on takes the other's mean (then the factor is 1 − o/π).
+        vec3 mean = (sum_b + sum_v) / float(LOBES_PLANE_SAMPLES);
+        vec3 l_b = w_b > 1e-3 ? sum_b / w_b : mean;
+        vec3 l_v = w_v > 1e-3 ? sum_v / w_v : mean;
+        vec3 visible = (PI - o) * l_v;
+        vec3 den = visible + o * l_b;
+        weighted *= mix(vec3(1.0 - o / PI), visible / max(den, vec3(1e-30)), greaterThan(den, vec3(0.0)));
     }
     return v_hs;
 }
@@ -633,7 +651,7 @@ vec3 shade_point(ShadePoint sp) {
     if (lp.env_black == 0u) {
         vec3 e_free = irradiance_lookup(irradiance_map, n);
         vec3 v_planes;
-        float v_hs = lobes_env_planes(p, n, e_free, v_planes);
+        float v_hs = lobes_env_planes(p, n, v_planes);
         bool env_hidden;
 #if LOBES_ENV_K > 0
         // env=lobes: each environment lobe as the paper takes a light: R × L_k, U_env = Σ ∫_{Ω+} R_r L_k,

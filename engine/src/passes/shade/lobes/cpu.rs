@@ -267,27 +267,12 @@ impl Twin {
         RgbLobe { axis: n, e: 1.0, s: [1.0; 3] }
     }
 
-    /// The planes' part of the environment's visibility (the shader's `lobes_env_planes`): the product
-    /// over the plane blockers in front of `p` of their cosine-weighted visibility, exact for a
-    /// half-space, for a rectangle one minus the occlusion of its equal-solid-angle cap lobe.
+    /// The planes' part of the environment's visibility under a constant environment (the shader's
+    /// `lobes_env_planes`, whose radiance weights are then 1): the product over the plane blockers in front of
+    /// `p` of 1 − o/π, o the cosine-weighted solid angle each hides ([`BlockerPlane::projected_solid_angle`]:
+    /// exact for half-spaces and rectangles).
     pub fn env_planes(&self, p: DVec3, n: DVec3, planes: &[BlockerPlane]) -> f64 {
-        let mut v_hs = 1.0;
-        for pl in planes.iter().filter(|pl| pl.blocks_receiver(p)) {
-            match pl.corners() {
-                None => v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0)),
-                Some(k) => {
-                    let a = k.map(|x| x - p);
-                    let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
-                    let alpha = (1.0 - omega / (2.0 * PI)).clamp(-1.0, 1.0).acos();
-                    let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
-                    let axis = super::super::shexp::cpu::cone_mean_direction(&a, centre).normalize();
-                    let cap = self.cap_lobe(axis, alpha, [1.0; 3], true, 1.0);
-                    let o = self.hemisphere_integral(&self.mul(&cap, &Self::cosine(n)), n)[0];
-                    v_hs *= (1.0 - o / PI).clamp(0.0, 1.0);
-                }
-            }
-        }
-        v_hs
+        planes.iter().map(|pl| (1.0 - pl.projected_solid_angle(p, n) / PI).clamp(0.0, 1.0)).product()
     }
 
     /// The environment's visibility under a constant environment (where the shader's prefiltered
