@@ -262,6 +262,9 @@ uint g_blocker_count;
 bool g_overflow;
 vec3 g_axis;
 float g_cos_mask;
+// env=map: the environment light the normal's mask leaves free, Σ over its free cells and the uncovered
+// share of its partial leaves of the same lobe product as a leaf's (lobes_shadow adds it; shade_point reads it).
+vec3 g_env_free;
 bool g_budget_hit;  // some mask of this receiver stopped refining at its work budget (lp.budget)
 
 void lobes_light_visit(vec4 s) {
@@ -404,7 +407,27 @@ bool lobes_leaf_product(Lobe rl, Lobe c, vec3 n, float u_lum, inout uint product
     return true;
 }
 
-// S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half).
+// The lobe of a mask cell (corners raw, unit centre, bounding-cone half-angle gamma): the cap lobe of its
+// bounding cone scaled so that its integral is `weight` times the cell's solid angle (w_i = weight Ω_cell / ∫c_i).
+Lobe lobes_cell_lobe(vec3 raw[4], vec3 centre, float gamma, float weight) {
+    float omega = lobes_triangle_solid_angle(raw[0], raw[1], raw[2]) + lobes_triangle_solid_angle(raw[0], raw[2], raw[3]);
+    Lobe c;
+    c.axis = centre;
+    c.e = lobes_cap_exponent(gamma);
+    c.s = vec3(weight * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
+    return c;
+}
+
+// env=map: a cell's environment light ∫_{Ω+} (cos c) times the prefiltered environment at its axis, filtered
+// like the cell's lobe (cos^e ≈ an SG of sharpness e); false when pruned (below t_i).
+bool lobes_env_cell(Lobe cosine, Lobe c, vec3 n, float u_lum, inout uint products, inout uint pruned, out vec3 v) {
+    if (!lobes_leaf_product(cosine, c, n, u_lum, products, pruned, v)) return false;
+    v *= prefiltered_lookup(prefiltered_env, c.axis, max(c.e, 1.0));
+    return true;
+}
+
+// S = Σ_leaves Σ_k w_i ∫_{Ω+} (rl_k c_i) for the light whose mask frame is (axis, t, b, tan_half). For the
+// environment's mask (env, env=map) also the free light, into g_env_free.
 vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t, vec3 b, float tan_half, float u_lum,
                   bool planes, bool env, uint depth_req, inout uint products, inout uint pruned, inout uint leaves, out bool hidden) {
     vec3 shadow = vec3(0.0);
@@ -444,6 +467,16 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
         work += 4u;
         int state = lobes_cell_state(q, centre, gamma, planes, subset, work);
+#if LOBES_ENV_K == 0 && LOBES_PHASE >= 5
+        // env=map: a free cell's light, for the ratio of free to hidden light (shade_point).
+        if (state == 0 && env) {
+            vec3 v;
+            if (lobes_env_cell(rl[0], lobes_cell_lobe(raw, centre, gamma, lp.weight), n, u_lum, products, pruned, v)) {
+                g_env_free += v;
+            }
+            continue;
+        }
+#endif
         if (state == 0) continue;
         bool refine = work < lp.budget;
         // A cell that would have split but the budget stops: counted (lobes_stats[7]).
@@ -485,12 +518,8 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         shadow += vec3(gamma * 1e-30);
         continue;
 #endif
-        float omega = lobes_triangle_solid_angle(raw[0], raw[1], raw[2]) + lobes_triangle_solid_angle(raw[0], raw[2], raw[3]);
-        Lobe c;
-        c.axis = centre;
-        c.e = lobes_cap_exponent(gamma);
         float w_d = env ? 1.0 : lp.light_weights[d];
-        c.s = vec3(leaf_weight * lp.weight * w_d * omega * (c.e + 1.0) / (2.0 * LOBES_PI));
+        Lobe c = lobes_cell_lobe(raw, centre, gamma, leaf_weight * lp.weight * w_d);
 #if LOBES_PHASE < 5
         shadow += c.s * c.e * 1e-30;
         continue;
@@ -505,13 +534,19 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
             continue;
         }
 #endif
+        // env=map: the leaf's hidden light; the uncovered share of a half-weight leaf is free.
+        if (env) {
+            vec3 v;
+            c.s /= leaf_weight;
+            if (lobes_env_cell(rl[0], c, n, u_lum, products, pruned, v)) {
+                shadow += leaf_weight * v;
+                g_env_free += (1.0 - leaf_weight) * v;
+            }
+            continue;
+        }
         for (int k = 0; k < rl_count; ++k) {
             vec3 v;
-            if (!lobes_leaf_product(rl[k], c, n, u_lum, products, pruned, v)) continue;
-            // The environment: each leaf's occluded light read from the prefiltered environment
-            // at the leaf's axis, filtered like the leaf lobe (cos^e ≈ an SG of sharpness e).
-            if (env) v *= prefiltered_lookup(prefiltered_env, c.axis, max(c.e, 1.0));
-            shadow += v;
+            if (lobes_leaf_product(rl[k], c, n, u_lum, products, pruned, v)) shadow += v;
         }
     }
     return shadow;
@@ -691,8 +726,17 @@ vec3 shade_point(ShadePoint sp) {
         cos_rl[0].s = vec3(1.0);
         for (int k = 1; k < LOBES_MAX_R; ++k) cos_rl[k] = cos_rl[0];
         float u_cos = lobes_hemisphere_integral(cos_rl[0], n).x;
+        g_env_free = vec3(0.0);
         vec3 s_env = lobes_env_mask(p, n, cos_rl, u_cos, env_hidden, products, pruned, leaves, overflow);
-        vec3 e_env = env_hidden ? vec3(0.0) : max(e_free - s_env, vec3(0.0)) * v_planes;
+        // The free share of the light: the mask's free light plus the band it leaves out (E(n) less all its
+        // cells' light, unshadowed), over all of it. Where the mask's cells hold less than E(n) this is
+        // E − S; where they hold more (their lobes overlap the band or each other), the ratio keeps the
+        // estimate in [0, E] and its colour that of the free directions. E − S alone, clamped at 0 per
+        // channel, went black with a hard edge wherever S passed E (the ground under the cloth, issue 37).
+        vec3 band = max(e_free - s_env - g_env_free, vec3(0.0));
+        vec3 all_light = s_env + g_env_free + band;
+        vec3 free_share = mix(vec3(1.0), (g_env_free + band) / max(all_light, vec3(1e-30)), greaterThan(all_light, vec3(0.0)));
+        vec3 e_env = env_hidden ? vec3(0.0) : e_free * free_share * v_planes;
         result = rho / PI * e_env;
         if (brdf_has_specular(sp.material)) {
             // Glossy: the unshadowed prefiltered term times the diffuse visibility (luminance).

@@ -98,6 +98,20 @@ pub struct LightTerms {
     /// S (green channel) by the depth of its leaves before the per-depth light weights (light masks
     /// only): S = Σ_d w_d `s_by_depth[d]` when nothing is pruned (the weight fit's regressors).
     pub s_by_depth: [f64; super::WEIGHT_DEPTHS],
+    /// The environment's mask with `env=map` ([`MaskKind::EnvMap`]): the light of its free cells and of the
+    /// uncovered share of its half-weight leaves (the shader's `g_env_free`).
+    pub free: [f64; 3],
+}
+
+/// Which mask [`Twin::mask`] builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaskKind {
+    /// A light's: its planes tested, its leaves weighted by depth ([`LobesOptions::light_weights`]).
+    Light,
+    /// The environment's with `env=map`: unit weights, and the free light ([`LightTerms::free`]) beside S.
+    EnvMap,
+    /// The environment's with `env=lobes`: unit weights, S only.
+    EnvLobes,
 }
 
 impl LightTerms {
@@ -276,10 +290,12 @@ impl Twin {
     }
 
     /// The environment's visibility under a constant environment (where the shader's prefiltered
-    /// weights are that constant): 1 − S/U of the cosine lobe through the mask about n (half-angle
-    /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
-    /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
-    /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
+    /// weights are that constant), `env=map`: the mask about n (half-angle [`super::MASK_MAX_HALF_ANGLE`],
+    /// planes left out of it) against the cosine lobe gives the hidden light S and the free light V of its
+    /// cells; with the band it leaves out, B = max(U − S − V, 0), the visibility is (V + B) / (S + V + B),
+    /// times the planes' ([`Self::env_planes`]); 0 when one blocker covers the whole mask. (The shader takes
+    /// E(n) = πL from the irradiance grid, the twin U = ∫cos from the table: they differ by the table's
+    /// interpolation error.)
     pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &TwinBvh, planes: &[BlockerPlane]) -> f64 {
         let v_hs = self.env_planes(p, n, planes);
         if spheres.is_empty() {
@@ -288,19 +304,24 @@ impl Twin {
         let rl = [Self::cosine(n)];
         let u = self.hemisphere_integral(&rl[0], n)[0];
         let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
-        self.env_mask(&mut out, p, n, &rl, spheres);
+        self.env_mask(&mut out, p, n, &rl, spheres, MaskKind::EnvMap);
         if out.hidden {
-            0.0
+            return 0.0;
+        }
+        let band = (u - out.s[0] - out.free[0]).max(0.0);
+        let all = out.s[0] + out.free[0] + band;
+        if all > 0.0 {
+            (out.free[0] + band) / all * v_hs
         } else {
-            (1.0 - out.s[0] / u).max(0.0) * v_hs
+            v_hs
         }
     }
 
     /// The environment's mask about n (half-angle [`super::MASK_MAX_HALF_ANGLE`], one level deeper
     /// than the lights', no planes, unit leaf weights) against the lobes `rl`.
-    fn env_mask(&self, out: &mut LightTerms, p: DVec3, n: DVec3, rl: &[RgbLobe], spheres: &TwinBvh) {
+    fn env_mask(&self, out: &mut LightTerms, p: DVec3, n: DVec3, rl: &[RgbLobe], spheres: &TwinBvh, kind: MaskKind) {
         let tan_half = super::MASK_MAX_HALF_ANGLE.tan();
-        self.mask(out, p, n, n, tan_half, rl, spheres, &[], false, false, self.options.depth + 1);
+        self.mask(out, p, n, n, tan_half, rl, spheres, &[], kind, self.options.depth + 1);
     }
 
     /// `env=lobes` at a receiver: the environment as the cosine lobes `env` (scale · max(axis·v, 0)^e),
@@ -324,7 +345,7 @@ impl Twin {
         }
         let v_hs = self.env_planes(r.p, r.n, planes);
         if !spheres.is_empty() {
-            self.env_mask(&mut out, r.p, r.n, &rl, spheres);
+            self.env_mask(&mut out, r.p, r.n, &rl, spheres, MaskKind::EnvLobes);
         }
         (out, v_hs)
     }
@@ -369,7 +390,7 @@ impl Twin {
             return out;
         }
         let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
-        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true, true, o.depth);
+        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, MaskKind::Light, o.depth);
         out
     }
 
@@ -434,9 +455,37 @@ impl Twin {
         (blockers, overflow)
     }
 
+    /// The lobe of a mask cell (the shader's `lobes_cell_lobe`): the cap lobe of its bounding cone
+    /// (half-angle `gamma` about `centre`), scaled so that its integral is `weight` × the cell's solid angle.
+    fn cell_lobe(&self, raw: &[DVec3; 4], centre: DVec3, gamma: f64, weight: f64) -> RgbLobe {
+        let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
+        let e = self.cap.exponent(gamma);
+        RgbLobe { axis: centre, e, s: [weight * omega * (e + 1.0) / (2.0 * PI); 3] }
+    }
+
+    /// One visibility product ∫_{Ω+} (c · cell) (the shader's `lobes_leaf_product`), counted in `out`; `None`
+    /// (pruned, counted) when its luminance is below t_i × |U|.
+    fn cell_product(
+        &self,
+        c: &RgbLobe,
+        cell: &RgbLobe,
+        n: DVec3,
+        u_lum: f64,
+        out: &mut LightTerms,
+    ) -> Option<[f64; 3]> {
+        let v = self.hemisphere_integral(&self.mul(c, cell), n);
+        out.products += 1;
+        if lum(v).abs() < self.options.threshold * u_lum.abs() {
+            out.pruned += 1;
+            return None;
+        }
+        Some(v)
+    }
+
     /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
     /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale). A
-    /// `light` mask weighs its leaves by depth ([`LobesOptions::light_weights`]).
+    /// light's mask tests `planes` and weighs its leaves by depth ([`LobesOptions::light_weights`]); the
+    /// environment's with `env=map` also adds its free light to [`LightTerms::free`].
     #[allow(clippy::too_many_arguments)]
     pub fn mask(
         &self,
@@ -448,16 +497,16 @@ impl Twin {
         rl: &[RgbLobe],
         spheres: &TwinBvh,
         planes: &[BlockerPlane],
-        with_planes: bool,
-        light: bool,
+        kind: MaskKind,
         depth: u32,
     ) {
         let o = &self.options;
+        let light = kind == MaskKind::Light;
         let u_lum = lum(out.u);
         let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres);
         out.overflow |= overflow;
         let (t, b) = orthonormal_basis(axis);
-        let tested: &[BlockerPlane] = if with_planes { planes } else { &[] };
+        let tested: &[BlockerPlane] = if light { planes } else { &[] };
         // The shader's cell state, counting its work (each blocker and plane tested, in its order). Only the
         // blockers in `subset` (those that met the parent cell) are tested; on return it holds those that meet
         // this cell (unchanged when one covers it).
@@ -531,6 +580,15 @@ impl Twin {
             let gamma = q.iter().map(|x| angle_between(centre.to_array(), x.to_array())).fold(0.0, f64::max);
             work += 4;
             let st = state(&q, centre, gamma, &mut subset, &mut work);
+            // A free cell's light (the environment's mask, env=map).
+            if st == 0 && kind == MaskKind::EnvMap {
+                if let Some(v) =
+                    self.cell_product(&rl[0], &self.cell_lobe(&raw, centre, gamma, o.weight), n, u_lum, out)
+                {
+                    (0..3).for_each(|k| out.free[k] += v[k]);
+                }
+                continue;
+            }
             let refine = work < o.budget;
             // A cell the budget keeps from splitting (the shader counts its receiver).
             out.budget_limited |= !refine && ((st == 2 && d < o.split.min(depth_max)) || (st == 1 && d < depth_max));
@@ -560,18 +618,20 @@ impl Twin {
             }
             let leaf_weight = if st == 1 && o.leaves == Leaves::Half { 0.5 } else { 1.0 };
             out.leaves += 1;
-            let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
-            let e = self.cap.exponent(gamma);
             let w_d = if light { o.light_weights[d as usize] } else { 1.0 };
-            let unit = leaf_weight * o.weight * omega * (e + 1.0) / (2.0 * PI);
-            let leaf = RgbLobe { axis: centre, e, s: [unit * w_d; 3] };
-            for c in rl {
-                let v = self.hemisphere_integral(&self.mul(c, &leaf), n);
-                out.products += 1;
-                if lum(v).abs() < o.threshold * u_lum.abs() {
-                    out.pruned += 1;
-                    continue;
+            if kind == MaskKind::EnvMap {
+                // The leaf's light at unit weight: its covered share hidden, the rest free.
+                if let Some(v) =
+                    self.cell_product(&rl[0], &self.cell_lobe(&raw, centre, gamma, o.weight), n, u_lum, out)
+                {
+                    (0..3).for_each(|k| out.s[k] += leaf_weight * v[k]);
+                    (0..3).for_each(|k| out.free[k] += (1.0 - leaf_weight) * v[k]);
                 }
+                continue;
+            }
+            let leaf = self.cell_lobe(&raw, centre, gamma, leaf_weight * o.weight * w_d);
+            for c in rl {
+                let Some(v) = self.cell_product(c, &leaf, n, u_lum, out) else { continue };
                 (0..3).for_each(|k| out.s[k] += v[k]);
                 if light && w_d > 0.0 {
                     out.s_by_depth[d as usize] += v[1] / w_d;
