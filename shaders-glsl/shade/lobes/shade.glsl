@@ -257,7 +257,9 @@ float lobes_triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
 
 vec3 g_p;
 vec3 g_n;
-vec4 g_blockers[LOBES_MAX_BLOCKERS];  // (unit direction, half-angle) seen from g_p
+// (unit direction, sin(β/2)) seen from g_p, β the half-angle: the cell tests compare chords |a − b| = 2 sin(∠/2),
+// which keep their digits for small angles and need no trigonometry per test (lobes_cell_state).
+vec4 g_blockers[LOBES_MAX_BLOCKERS];
 uint g_blocker_count;
 bool g_overflow;
 vec3 g_axis;
@@ -278,7 +280,7 @@ void lobes_light_visit(vec4 s) {
     vec3 d = b.xyz - g_p;
     float l = length(d);
     vec3 dir = l > 0.0 ? d / l : g_n;
-    g_blockers[g_blocker_count] = vec4(dir, sphere_subtended_half_angle(g_p, b));
+    g_blockers[g_blocker_count] = vec4(dir, sin(0.5 * sphere_subtended_half_angle(g_p, b)));
     g_blocker_count += 1u;
 }
 
@@ -345,10 +347,13 @@ uvec2 lobes_all_blockers(uint count) {
     return uvec2(lo, hi);
 }
 
-// 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit;
-// gamma: the cell's bounding-cone half-angle. Only the blockers in `subset` are tested (in index order: those
-// that met the parent cell); on return it holds those that meet this cell (unchanged when one covers it).
-int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes, inout uvec2 subset, inout uint work) {
+// 0: no blocker meets the cell; 1: partial; 2: covered. corners: unit directions; centre: unit; (sg, cg) =
+// (sin, cos) of half the cell's bounding-cone half-angle γ. Only the blockers in `subset` are tested (in index
+// order: those that met the parent cell); on return it holds those that meet this cell (unchanged when one
+// covers it). The tests of the twin (cpu::Twin::mask), in chords: a blocker of half-angle β misses the cell when
+// ∠(b, centre) ≥ β + γ, i.e. |b − centre| ≥ 2 sin((β + γ)/2) while (β + γ)/2 < π/2; it covers the cell when
+// every corner is within β of b, |q − b|² ≤ 4 sin²(β/2). (The angle form took an atan2 and a cos per test.)
+int lobes_cell_state(vec3 q[4], vec3 centre, float sg, float cg, bool planes, inout uvec2 subset, inout uint work) {
     bool partial = false;
     uvec2 met = uvec2(0u);
     for (uint half_ = 0u; half_ < 2u; ++half_) {
@@ -358,9 +363,14 @@ int lobes_cell_state(vec3 q[4], vec3 centre, float gamma, bool planes, inout uve
             bits &= bits - 1u;
             work += 1u;
             vec4 b = g_blockers[j + 32u * half_];
-            if (lobe_angle_between(b.xyz, centre) >= b.w + gamma) continue;
-            float cb = cos(b.w);
-            if (dot(q[0], b.xyz) >= cb && dot(q[1], b.xyz) >= cb && dot(q[2], b.xyz) >= cb && dot(q[3], b.xyz) >= cb) return 2;
+            float sb = b.w;
+            float cb = sqrt(max(1.0 - sb * sb, 0.0));
+            float sin_sum = sb * cg + cb * sg;
+            vec3 dc = b.xyz - centre;
+            if (cb * cg - sb * sg > 0.0 && dot(dc, dc) >= 4.0 * sin_sum * sin_sum) continue;
+            float r2 = 4.0 * sb * sb;
+            vec3 d0 = q[0] - b.xyz, d1 = q[1] - b.xyz, d2 = q[2] - b.xyz, d3 = q[3] - b.xyz;
+            if (dot(d0, d0) <= r2 && dot(d1, d1) <= r2 && dot(d2, d2) <= r2 && dot(d3, d3) <= r2) return 2;
             partial = true;
             if (half_ == 0u) met.x |= 1u << j;
             else met.y |= 1u << j;
@@ -463,10 +473,17 @@ vec3 lobes_shadow(Lobe rl[LOBES_MAX_R], int rl_count, vec3 n, vec3 axis, vec3 t,
         }
         if (!any_above) continue;  // wholly below the tangent plane: contributes nothing
         vec3 centre = normalize(axis + tan_half * (cx * t + cy * b));
-        float gamma = 0.0;
-        for (int c = 0; c < 4; ++c) gamma = max(gamma, lobe_angle_between(centre, q[c]));
+        // The bounding cone's half-angle γ from the longest chord to a corner: sg = sin(γ/2), cg = cos(γ/2).
+        float chord2 = 0.0;
+        for (int c = 0; c < 4; ++c) {
+            vec3 dq = q[c] - centre;
+            chord2 = max(chord2, dot(dq, dq));
+        }
+        float sg = min(0.5 * sqrt(chord2), 1.0);
+        float cg = sqrt(max(1.0 - sg * sg, 0.0));
+        float gamma = 2.0 * atan(sg, cg);
         work += 4u;
-        int state = lobes_cell_state(q, centre, gamma, planes, subset, work);
+        int state = lobes_cell_state(q, centre, sg, cg, planes, subset, work);
 #if LOBES_ENV_K == 0 && LOBES_PHASE >= 5
         // env=map: a free cell's light, for the ratio of free to hidden light (shade_point).
         if (state == 0 && env) {
