@@ -19,6 +19,10 @@ use engine_math::tables::Table;
 use glam::DVec3;
 use std::f64::consts::PI;
 
+/// Depth adaptation: a partial cell whose products are bounded below `ADAPT` × t_i × |U| is not refined
+/// (`LOBES_ADAPT` in shade.glsl; [`Twin::cell_negligible`]).
+pub const ADAPT: f64 = 300.0;
+
 /// A lobe with an RGB scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RgbLobe {
@@ -482,6 +486,27 @@ impl Twin {
         Some(v)
     }
 
+    /// The shader's `lobes_cell_negligible` (depth adaptation): whether a partial cell (bounding cone of
+    /// half-angle `gamma` about `centre`) can add so little through the lobes `rl` that it is not refined: its
+    /// bound 2 Ω_γ Σ_k |rl_k| max_cell rl_k (Ω_γ = 4π sin²(γ/2); the maximum at the cell's point nearest the
+    /// lobe's axis) below [`ADAPT`] × t_i × |U|.
+    fn cell_negligible(&self, rl: &[RgbLobe], centre: DVec3, gamma: f64, u_lum: f64) -> bool {
+        let bound: f64 = rl
+            .iter()
+            .map(|c| {
+                let theta = angle_between(c.axis.to_array(), centre.to_array());
+                let near = if theta <= gamma { 1.0 } else { (theta - gamma).cos() };
+                if near > 0.0 {
+                    lum(c.s).abs() * (c.e * near.ln()).exp()
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        let omega = 4.0 * PI * (0.5 * gamma).sin().powi(2);
+        2.0 * omega * bound < ADAPT * self.options.threshold * u_lum.abs()
+    }
+
     /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
     /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale). A
     /// light's mask tests `planes` and weighs its leaves by depth ([`LobesOptions::light_weights`]); the
@@ -606,7 +631,10 @@ impl Twin {
             }
             match st {
                 0 => continue,
-                1 if d < depth_max && refine => {
+                1 if d < depth_max
+                    && refine
+                    && (kind == MaskKind::EnvLobes || !self.cell_negligible(rl, centre, gamma, u_lum)) =>
+                {
                     // Pushed in the shader's order (k = 0..3), popped last first.
                     for k in 0..4u32 {
                         stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), subset));

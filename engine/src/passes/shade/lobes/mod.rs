@@ -180,7 +180,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
     reads: Reads { lights: true, blockers: true, thin: false, geometry: false },
     // Measured by tests/tests/techniques.rs at the defaults: furnace 3.01e-4 (the irradiance grid, as
     // `isg`), no blockers vs `none` 0 (the visibility is exactly 1: the same shared terms), one sphere
-    // 1.91 % (the environment mask at depth 5: cells about the normal ~10° wide, half-weight partial
+    // 2.09 % (the environment mask at depth 5: cells about the normal ~10° wide, half-weight partial
     // leaves, round leaf lobes for square cells), the ball above a half-space 0.005 % and above a rectangle
     // 0.056 % (both exact: the plate's cosine-weighted solid angle by Lambert's formula; 1.93 % with the
     // equal-solid-angle cap lobe it replaced). Bounds: the measurement with margin.
