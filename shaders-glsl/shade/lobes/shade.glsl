@@ -168,9 +168,11 @@ Lobe lobes_mul(Lobe c1, Lobe c2) {
     float alpha = lobe_angle_between(c1.axis, c2.axis);
     vec2 r = lobes_product_raw(c1.e, c2.e, alpha);
     Lobe o;
-    o.axis = lobe_product_axis(c1.axis, c1.e, c2.axis, c2.e);
+    // The axis angle once for the axis and the peak (lobe_product_axis and _scale would each recompute it).
+    float t = lobe_product_axis_angle(c1.e, c2.e, alpha);
+    o.axis = lobe_product_axis_at(c1.axis, c2.axis, t);
     o.e = max(r.y, 0.0);
-    o.s = c1.s * c2.s * lobe_product_scale(c1.e, c2.e, alpha, r.x);
+    o.s = c1.s * c2.s * lobe_product_scale_at(c1.e, c2.e, alpha, t, r.x);
     return o;
 }
 
