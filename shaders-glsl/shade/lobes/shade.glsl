@@ -271,9 +271,19 @@ float g_cos_mask;
 vec3 g_env_free;
 bool g_budget_hit;  // some mask of this receiver stopped refining at its work budget (lp.budget)
 
+// The blocker a sphere becomes for the receiver: SHEXP §6.2's rules, in the environment's mask with its radius
+// scale α (blocker_for_receiver_alpha, shexp's default: a sphere straddling the tangent plane with the receiver
+// outside it shrinks continuously, near it, to the inside rule's blocker). The plain rule turns every straddling
+// sphere into the sphere of radius (h + r)/2 sitting on the tangent plane; the cloth's stand-in spheres (one per
+// 4 × 4 quads, centred on the sheet) straddle the tangent plane of every receiver on the cloth, which so saw a
+// ring of blockers about its horizon from its own sheet: 22 % of its cosine-weighted sky on average, in a pattern
+// of the 12 × 12 patches (the grid of issue 37; tests/tests/lobes.rs the_flat_cloth_does_not_shadow_itself).
+// The lights' masks keep the plain rule: with α, lamp_key's light shadows moved from 0.68 to 0.88 % (vs the
+// sphere reference, which takes the plain rule) and 4.28 to 4.37 % (vs the triangles). Twin: cpu::Twin::collect.
+bool g_alpha_rule;
 void lobes_light_visit(vec4 s) {
     vec4 b;
-    if (!blocker_for_receiver(g_p, g_n, s, b)) return;
+    if (!(g_alpha_rule ? blocker_for_receiver_alpha(g_p, g_n, s, b) : blocker_for_receiver(g_p, g_n, s, b))) return;
     if (!(b.w > 0.0)) return;
     if (g_blocker_count >= uint(LOBES_MAX_BLOCKERS)) {
         g_overflow = true;
@@ -692,7 +702,9 @@ vec3 lobes_env_mask(vec3 p, vec3 n, Lobe rl[LOBES_MAX_R], float u_lum, out bool 
 #if LOBES_PHASE < 2
     return vec3(u_lum * 1e-30);
 #endif
+    g_alpha_rule = true;
     lobes_gather(p, n, n, tan_half, lp.depth + 1u);
+    g_alpha_rule = false;
     if (g_overflow) overflow |= 1u;
 #if LOBES_PHASE < 3
     return vec3(float(g_blocker_count) * 1e-30);
@@ -708,6 +720,7 @@ vec3 shade_point(ShadePoint sp) {
     vec3 p = sp.position;
     uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
     g_budget_hit = false;
+    g_alpha_rule = false;
 
     vec3 rho = sp.material.diffuse.rgb;
     // Reflectance lobes f_r · cos (§5.1).

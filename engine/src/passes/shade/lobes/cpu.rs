@@ -9,7 +9,9 @@
 use super::{Leaves, LobesOptions};
 use crate::tables::default_dir;
 use engine_blockers::bvh::{GpuBvhNode, SphereBvh, INVALID};
-use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
+use engine_blockers::geom::{
+    blocker_for_receiver, blocker_for_receiver_alpha, cone_intersects_sphere, subtended_half_angle, Cone, Sphere,
+};
 use engine_blockers::plane::BlockerPlane;
 use engine_math::lobes::{
     angle_between, product_axis, product_log_peak, CapTable, HemisphereTable, ProductTable, MAX_EXPONENT,
@@ -401,7 +403,10 @@ impl Twin {
     /// The shader's `lobes_gather`: the blockers of the mask about `axis` (square half-side `tan_half`,
     /// maximal depth `depth`) as (direction, half-angle), from the cut with `take_whole` cells, retried
     /// with the threshold doubled while it overflows [`super::MAX_BLOCKERS`], at most `coarsen` times;
-    /// and whether the last cut still overflowed (its excess dropped).
+    /// and whether the last cut still overflowed (its excess dropped). The environment's masks see each sphere
+    /// through SHEXP §6.2's rules with the radius scale α, a light's through the plain rules (the shader's
+    /// `lobes_light_visit`).
+    #[allow(clippy::too_many_arguments)]
     pub fn gather(
         &self,
         p: DVec3,
@@ -410,13 +415,14 @@ impl Twin {
         tan_half: f64,
         depth: u32,
         spheres: &TwinBvh,
+        kind: MaskKind,
     ) -> (Vec<(DVec3, f64)>, bool) {
         let o = &self.options;
         let corner = (tan_half * 2f64.sqrt()).atan();
         let mut cells = o.take_whole as f32 as f64 * 2.0 * tan_half / (1u32 << depth.min(super::MAX_DEPTH)) as f64;
         let mut i = 0;
         loop {
-            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres);
+            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres, kind != MaskKind::Light);
             if !overflow || cells.is_nan() || cells <= 0.0 || i >= o.coarsen {
                 return (blockers, overflow);
             }
@@ -425,8 +431,16 @@ impl Twin {
         }
     }
 
-    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only).
-    fn collect(p: DVec3, n: DVec3, axis: DVec3, corner: f64, cells: f64, bvh: &TwinBvh) -> (Vec<(DVec3, f64)>, bool) {
+    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only); `alpha`: the receiver rules with α.
+    fn collect(
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        corner: f64,
+        cells: f64,
+        bvh: &TwinBvh,
+        alpha: bool,
+    ) -> (Vec<(DVec3, f64)>, bool) {
         let cone = Cone::new(p, axis, corner);
         let mut blockers = Vec::new();
         let mut overflow = false;
@@ -444,7 +458,8 @@ impl Twin {
                 stack.push(node.left);
                 continue;
             }
-            let Some(b) = blocker_for_receiver(p, n, &s) else { continue };
+            let b = if alpha { blocker_for_receiver_alpha(p, n, &s) } else { blocker_for_receiver(p, n, &s) };
+            let Some(b) = b else { continue };
             if b.radius <= 0.0 {
                 continue;
             }
@@ -528,7 +543,7 @@ impl Twin {
         let o = &self.options;
         let light = kind == MaskKind::Light;
         let u_lum = lum(out.u);
-        let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres);
+        let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres, kind);
         out.overflow |= overflow;
         let (t, b) = orthonormal_basis(axis);
         let tested: &[BlockerPlane] = if light { planes } else { &[] };
