@@ -102,18 +102,18 @@ float lobe_product_axis_angle(float e1, float e2, float alpha) {
     return 0.5 * (alpha + atan(x, sqrt((1.0 - x) * (1.0 + x))));
 }
 
-// ln(c1(a_r) c2(a_r)) for unit scales (twin of lobes::product_log_peak).
+// ln(c1(a_r) c2(a_r)) for unit scales (twin of lobes::product_log_peak); _at takes the axis angle t of
+// lobe_product_axis_angle(e1, e2, alpha), which lobes_mul computes once for the axis and the peak.
 // For alpha < pi, t and alpha - t lie in [0, pi/2) exactly, but in f32 (and through the GPU's atan2,
 // 3.4e-6 on lavapipe) they can round onto or past pi/2 when one exponent is below ~1e-5 of the
 // other; testing cos > 0 then returned -inf (a zero product) where the broad lobe is still ~1 at
 // its horizon and the product is not small (found by tests/tests/math_gpu_lobes.rs: e1 = 2e-4,
 // e2 = 2.3e4, alpha = 1.58 gave -inf for -0.91). lobes_ln_cos_to_half_pi floors the distance to pi/2
 // at the f32 resolution instead.
-float lobe_product_log_peak(float e1, float e2, float alpha) {
+float lobe_product_log_peak_at(float e1, float e2, float alpha, float t) {
     if (alpha >= LOBES_PI) {
         return LOBES_NEG_INF;
     }
-    float t = lobe_product_axis_angle(e1, e2, alpha);
     float l = 0.0;
     if (e1 != 0.0) {
         l += e1 * lobes_ln_cos_to_half_pi(abs(t));
@@ -123,6 +123,9 @@ float lobe_product_log_peak(float e1, float e2, float alpha) {
     }
     return max(l, LOBES_NEG_INF);
 }
+float lobe_product_log_peak(float e1, float e2, float alpha) {
+    return lobe_product_log_peak_at(e1, e2, alpha, lobe_product_axis_angle(e1, e2, alpha));
+}
 
 // Any unit vector orthogonal to the unit vector a.
 vec3 lobes_any_orthogonal(vec3 a) {
@@ -130,19 +133,20 @@ vec3 lobes_any_orthogonal(vec3 a) {
     return normalize(cross(a, h));
 }
 
-// Product lobe axis: a1 rotated by t towards a2 (twin of lobes::product_axis).
-vec3 lobe_product_axis(vec3 a1, float e1, vec3 a2, float e2) {
-    float alpha = lobe_angle_between(a1, a2);
-    float t = lobe_product_axis_angle(e1, e2, alpha);
+// Product lobe axis: a1 rotated by t towards a2 (twin of lobes::product_axis); _at takes t.
+vec3 lobe_product_axis_at(vec3 a1, vec3 a2, float t) {
     vec3 perp = a2 - a1 * dot(a1, a2);
     float lp = length(perp);
     vec3 b = (lp > 1.0e-6) ? perp / lp : lobes_any_orthogonal(a1);
     return normalize(a1 * cos(t) + b * sin(t));
 }
+vec3 lobe_product_axis(vec3 a1, float e1, vec3 a2, float e2) {
+    return lobe_product_axis_at(a1, a2, lobe_product_axis_angle(e1, e2, lobe_angle_between(a1, a2)));
+}
 
-// p_r from the closed-form peak and the table's ln_pr_rel (twin of ProductFit::p_r).
-float lobe_product_scale(float e1, float e2, float alpha, float ln_pr_rel) {
-    float lp = lobe_product_log_peak(e1, e2, alpha);
+// p_r from the closed-form peak (at the axis angle t) and the table's ln_pr_rel (twin of ProductFit::p_r).
+float lobe_product_scale_at(float e1, float e2, float alpha, float t, float ln_pr_rel) {
+    float lp = lobe_product_log_peak_at(e1, e2, alpha, t);
     return (lp <= LOBES_NEG_INF) ? 0.0 : exp(lp + ln_pr_rel);
 }
 

@@ -65,4 +65,50 @@ void plane_edge_normals(BlockerPlane pl, vec3 p, out vec3 e[4]) {
     e[3] = normalize(s * cross(a3, a0));
 }
 
+// ∫ (n·ω)⁺ dω over the directions through the convex polygon a[0..3] (vertices relative to the viewpoint, in
+// order): the polygon clipped to n·x ≥ 0 (its edges are great-circle arcs, so the clip is linear), then
+// Lambert's formula ½ |Σ_e Θ_e n·u_e| (Θ_e the edge's angle, u_e its plane's unit normal): exact.
+// Twin: plane::polygon_projected_solid_angle.
+float plane_polygon_projected_solid_angle(vec3 a[4], vec3 n) {
+    vec3 poly[5];
+    int count = 0;
+    for (int k = 0; k < 4; ++k) {
+        vec3 u = a[k];
+        vec3 w = a[(k + 1) & 3];
+        float du = dot(n, u);
+        float dw = dot(n, w);
+        if (du >= 0.0) {
+            poly[count] = u;
+            count += 1;
+        }
+        if ((du >= 0.0) != (dw >= 0.0) && count < 5) {
+            poly[count] = u + (w - u) * (du / (du - dw));
+            count += 1;
+        }
+    }
+    if (count < 3) return 0.0;
+    float sum = 0.0;
+    for (int k = 0; k < count; ++k) {
+        vec3 u = poly[k];
+        vec3 w = poly[k + 1 < count ? k + 1 : 0];
+        vec3 x = cross(u, w);
+        float lx = length(x);
+        if (lx > 0.0) sum += atan(lx, dot(u, w)) * dot(n, x) / lx;
+    }
+    return min(0.5 * abs(sum), 3.14159265358979);
+}
+
+// The cosine-weighted solid angle of the directions from p (unit normal n) the blocker hides: 0 when the
+// self-shadowing rule spares p, π(1 − n·m)/2 for a half-space, Lambert's formula over the clipped plate for
+// a rectangle. Twin: BlockerPlane::projected_solid_angle.
+float plane_projected_solid_angle(BlockerPlane pl, vec3 p, vec3 n) {
+    if (!plane_blocks_receiver(pl, p)) return 0.0;
+    if (!plane_is_rectangle(pl)) return 0.5 * 3.14159265358979 * (1.0 - clamp(dot(n, pl.plane.xyz), -1.0, 1.0));
+    vec3 c = pl.center.xyz - p;
+    vec3 u = pl.half_u.xyz;
+    vec3 v = pl.half_v.xyz;
+    vec3 a[4] = vec3[4](c - u - v, c + u - v, c + u + v, c - u + v);
+    return plane_polygon_projected_solid_angle(a, n);
+}
+
 #endif // PLANES_GLSL

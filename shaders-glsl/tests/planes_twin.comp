@@ -1,20 +1,21 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Twin test of common/planes.glsl against engine/blockers/src/plane.rs (tests/tests/math_gpu_planes.rs).
-// Input, stride 26 floats per case:
+// Input, stride 29 floats per case:
 //   [0..16) the BlockerPlane record (plane, center, half_u, half_v), [16..19) receiver p,
-//   [19..22) ray origin o, [22..25) unit direction d, [25] t_max
-// Output, stride 14 floats per case:
+//   [19..22) ray origin o, [22..25) unit direction d, [25] t_max, [26..29) unit receiver normal n
+// Output, stride 15 floats per case:
 //   [0] plane_blocks_receiver(p) (1/0)   [1] plane_hit(p, o, d, t_max) (−1: miss)
 //   [2..14) plane_edge_normals(p) (rectangles blocking p only; zero otherwise)
+//   [14] plane_projected_solid_angle(p, n)
 #include "../common/planes.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Input { float data_in[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Output { float data_out[]; };
 layout(push_constant) uniform Push { uint count; } pc;
 
-const uint IN_STRIDE = 26u;
-const uint OUT_STRIDE = 14u;
+const uint IN_STRIDE = 29u;
+const uint OUT_STRIDE = 15u;
 
 vec4 in4(uint b) {
     return vec4(data_in[b], data_in[b + 1u], data_in[b + 2u], data_in[b + 3u]);
@@ -51,4 +52,5 @@ void main() {
         data_out[w + 3u + 3u * k] = e[k].y;
         data_out[w + 4u + 3u * k] = e[k].z;
     }
+    data_out[w + 14u] = plane_projected_solid_angle(pl, p, in3(b + 26u));
 }

@@ -10,7 +10,7 @@ use engine::math::brdf::{self, HalfVectorFit};
 use engine::math::envmap::LatLongMap;
 use engine::math::lobes::clamped_cosine_integral;
 use engine::math::sphere_light::{sphere_light_clamped_cosine, sphere_light_sg_integral};
-use engine::passes::shade::lobes::cpu::{specular_lobes, RgbLobe, Twin, TwinBvh, TwinLight, TwinReceiver};
+use engine::passes::shade::lobes::cpu::{specular_lobes, MaskKind, RgbLobe, Twin, TwinBvh, TwinLight, TwinReceiver};
 use engine::passes::shade::lobes::{Leaves, LobesOptions, MASK_WORK_BUDGET};
 use engine::renderer::RenderSettings;
 use engine::scene::{Scene, SphereLight};
@@ -324,6 +324,176 @@ fn environment_planes_are_weighted_by_the_environment() {
     gpu.shutdown().expect("clean teardown");
 }
 
+/// The environment under a ground rectangle, from downward-facing receivers (issue 37: the orange blotches and
+/// black pixels along the bunny's lower silhouette, chess's white pieces and battle's rocks): a ball 0.15 above a
+/// large plate, no sphere blockers, under a bright sky (a blue-white gradient) over a dim warm lower
+/// hemisphere. Each receiver of the ball's lower half (n·y < −0.3) against the closed form ρ/π ∫ L (n·ω)⁺ over
+/// the directions the plate leaves free (a quadrature over the hemisphere of n of the analytic environment
+/// the map was filled from). The old factor, 1 − o L̄/E(n) with L̄ one lookup about the plate's mean
+/// direction at its cap lobe's sharpness, read the whole sphere's light (sky included) once the plate filled
+/// the hemisphere: o L̄ passed E(n), blue first, then every channel clamped to 0 (measured: all 3 channels
+/// black at most of these receivers).
+#[test]
+fn environment_planes_keep_the_light_of_downward_receivers() {
+    let sky = |d: DVec3| -> [f64; 3] {
+        let t = (0.5 + 2.5 * d.y).clamp(0.0, 1.0);
+        let t = t * t * (3.0 - 2.0 * t);
+        let up = d.y.max(0.0);
+        [0.25 + t * (1.2 + 0.6 * up - 0.25), 0.15 + t * (1.6 + 0.8 * up - 0.15), 0.06 + t * (2.2 + 1.2 * up - 0.06)]
+    };
+    let mut env = LatLongMap::constant(128, 64, [0.0; 3]);
+    for row in 0..env.height {
+        for col in 0..env.width {
+            let d = DVec3::from_array(env.texel_direction(col, row));
+            env.texels[row * env.width + col] = sky(d).map(|x| x as f32);
+        }
+    }
+    let plate = BlockerPlane::rectangle(DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 2.0));
+    let mut s = scene(vec![], vec![plate]);
+    s.environment = env;
+    s.blockers.spheres = vec![None, None];
+    s.camera.eye = Vec3::new(0.0, 0.35, 2.2);
+    s.camera.target = Vec3::new(0.1, 0.5, -0.1);
+    let gpu = engine_tests::gpu();
+    let settings = RenderSettings { width: W, height: H, technique: "lobes".into(), ..Default::default() };
+    let (hdr, g, _) = engine_tests::render_with_bvh(&gpu, &s, settings);
+    gpu.shutdown().expect("clean teardown");
+    assert_finite(&hdr, "lobes");
+    let (mut sum2, mut sum_w2, mut count, mut worst, mut dark) = (0.0, 0.0, 0, 0.0f64, 0);
+    for (i, px) in g.iter().enumerate() {
+        let Some((p, n, 1)) = *px else { continue };
+        if n.y >= -0.3 {
+            continue;
+        }
+        let (t, b) = engine::passes::shade::lobes::cpu::orthonormal_basis(n);
+        let m = 96;
+        let (mut want, mut free) = ([0.0; 3], [0.0; 3]);
+        for a in 0..m {
+            let r2 = (a as f64 + 0.5) / m as f64;
+            for c in 0..m {
+                let phi = 2.0 * PI * (c as f64 + 0.5) / m as f64;
+                let w = (t * phi.cos() + b * phi.sin()) * r2.sqrt() + n * (1.0 - r2).sqrt();
+                // Cosine-distributed cells: each holds π/m² of ∫ (n·ω)⁺ dω.
+                let l = sky(w).map(|x| ALBEDO[1] / PI * x * PI / (m * m) as f64);
+                (0..3).for_each(|k| free[k] += l[k]);
+                if !plate.blocks_direction(p, w) {
+                    (0..3).for_each(|k| want[k] += l[k]);
+                }
+            }
+        }
+        let got = rgb(&hdr, i);
+        for k in 0..3 {
+            let e = (got[k] - want[k]) / want[k];
+            worst = worst.max(e.abs());
+            sum2 += (got[k] - want[k]).powi(2);
+            sum_w2 += want[k] * want[k];
+            // Where the plate leaves at least a tenth of the light, nothing below a quarter of it: the two
+            // receivers at the very bottom see only a sliver of a few degrees past the plate's edge, which few of
+            // the 32 samples reach (measured 0.38 to 0.66 of the closed form there, at 2 % of the ball's lit
+            // value); the old factor left 0 in most channels.
+            dark += usize::from(want[k] >= 0.1 * free[k] && got[k] < 0.25 * want[k]);
+        }
+        count += 1;
+    }
+    let rmse = (sum2 / sum_w2).sqrt();
+    eprintln!(
+        "downward receivers over a plate under a sky: {count} receivers, relative RMSE {:.2} %, worst channel {:.1} %, \
+         {dark} channels below a quarter of the closed form (where it is at least 10 % of the free light)",
+        100.0 * rmse,
+        100.0 * worst
+    );
+    assert!(count > 40, "too few downward receivers in view: {count}");
+    // Measured 2.6 % (the prefiltered environment's blur at the plate's edge), 0 dark; the old factor 80 %.
+    assert!(dark == 0 && rmse < 0.06, "relative RMSE {rmse}, worst {worst}, {dark} dark channels");
+}
+
+/// The cloth scene at rest (issue 37: large black blotches with hard edges on the ground under the cloth): 40 × 30
+/// against the sphere-proxy reference at 64 spp. The environment's mask over a ground receiver holds the cloth's
+/// 144 stand-in spheres and the bunnies' (coarsened cuts), and its leaves, weighted by the courtyard's bright
+/// overhead light, held more than E(n): measured S = 1.04 E(n) under the cloth's middle, where the proxy leaves
+/// about a third of the light. E − S clamped at 0 per channel went black there, with a hard edge where S crossed
+/// E. Now the free light of the mask's cells over all of its light gives the free share (there 6 %, too dark,
+/// but never black while a cell is free). No pixel below 2 % of the reference where the reference is above 5 %
+/// of its median (the artefact gate's rule).
+#[test]
+fn the_cloth_casts_no_black_blotches() {
+    use engine::passes::shade::reference::Visibility;
+    let gpu = engine_tests::gpu();
+    let scene = demos::scenes::build("cloth", None).expect("scene");
+    let settings = RenderSettings { width: W, height: H, ..Default::default() };
+    let reference = demos::measure::reference_at(&gpu, &scene, &settings, Visibility::Spheres, 64, 16).unwrap();
+    let (hdr, _) = engine_tests::render(&gpu, &scene, RenderSettings { technique: "lobes".into(), ..settings.clone() });
+    gpu.shutdown().expect("clean teardown");
+    assert_finite(&hdr, "lobes");
+    let lum =
+        |a: &[f32], i: usize| 0.2126 * a[4 * i] as f64 + 0.7152 * a[4 * i + 1] as f64 + 0.0722 * a[4 * i + 2] as f64;
+    let pixels = (W * H) as usize;
+    let mut lit: Vec<f64> = (0..pixels).filter(|&i| reference.mask[i]).map(|i| lum(&reference.hdr, i)).collect();
+    lit.sort_by(f64::total_cmp);
+    let median = lit[lit.len() / 2];
+    let black: Vec<usize> = (0..pixels)
+        .filter(|&i| reference.mask[i] && lum(&reference.hdr, i) > 0.05 * median)
+        .filter(|&i| lum(&hdr, i) < 0.02 * lum(&reference.hdr, i))
+        .collect();
+    eprintln!("cloth at rest, lobes: {} black pixels where the reference is lit: {black:?}", black.len());
+    assert!(black.is_empty(), "{} black pixels", black.len());
+}
+
+/// The cloth at rest is a flat sheet with nothing above it: its upper side sees the whole sky (the reference
+/// traces its triangles). Techniques that read spheres see its 144 stand-ins (one per 4 × 4 quads, centred on
+/// the sheet), which straddle the tangent plane of every cloth receiver. SHEXP §6.2's plain rule turned each
+/// neighbour into the sphere of radius (h + r)/2 on the tangent plane: a ring of blockers about the horizon that
+/// hid 22 to 26 % of the cosine-weighted sky, in the pattern of the patches (issue 37's grid on the cloth). With
+/// the radius scale α (blocker_for_receiver_alpha) the near neighbours shrink to the inside rule's blocker. The
+/// twin's environment visibility (the shader's rule; GPU = twin in the tests above) at the sheet's inner vertices
+/// and quad centres, facing up, against the stand-ins of the rest pose: measured mean 0.901 (the plain rule
+/// 0.778). Left: a receiver almost at a stand-in's centre (1 of 338 here) still meets the inside rule, a sphere of
+/// radius h about a centre about h above it, which hides its sky.
+#[test]
+fn the_flat_cloth_does_not_shadow_itself() {
+    use engine::scene::cloth::{patch_sphere, rest_positions};
+    let scene = demos::scenes::build("cloth", None).expect("scene");
+    let cloth = scene.blockers.cloth.clone().expect("the cloth");
+    let (instance, _) = engine::scene::cloth::cloth_instance(&scene, &cloth).expect("its instance");
+    let inst = &scene.instances[instance];
+    let x: Vec<DVec3> = rest_positions(&cloth, &scene.meshes[inst.mesh].positions, inst.transform)
+        .iter()
+        .map(|p| p.as_dvec3())
+        .collect();
+    let (across, down) = cloth.sphere_grid();
+    let stand_ins: Vec<Sphere> = (0..down)
+        .flat_map(|b| (0..across).map(move |a| (a, b)))
+        .map(|(a, b)| {
+            let (c, r) = patch_sphere(&cloth, &x, a, b);
+            Sphere::new(c, r)
+        })
+        .collect();
+    let bvh = bvh(&stand_ins);
+    let twin = Twin::new(&LobesOptions::default()).expect("tables");
+    let (cols, rows) = (cloth.columns as usize, cloth.rows as usize);
+    let at = |i: usize, j: usize| x[j * cols + i];
+    let (mut worst, mut sum, mut count, mut low) = (1.0f64, 0.0, 0, 0);
+    for j in (4..rows - 5).step_by(3) {
+        for i in (4..cols - 5).step_by(3) {
+            let centre = 0.25 * (at(i, j) + at(i + 1, j) + at(i, j + 1) + at(i + 1, j + 1));
+            for p in [at(i, j), centre] {
+                let v = twin.env_visibility(p, DVec3::Y, &bvh, &[]);
+                low += usize::from(v < 0.5);
+                worst = worst.min(v);
+                sum += v;
+                count += 1;
+            }
+        }
+    }
+    eprintln!(
+        "flat cloth, {count} receivers facing up: environment visibility mean {:.3}, worst {worst:.3}, {low} below \
+         0.5 (truth 1)",
+        sum / count as f64
+    );
+    let mean = sum / count as f64;
+    assert!(mean > 0.85 && low * 100 <= count, "mean visibility {mean}, {low} of {count} below 0.5");
+}
+
 /// Hard light placements on the GPU and the twin: a tiny light (e_cap ≈ 2e6, past the tables), a light
 /// inside the blocker, a light below the ground (behind the plane receivers' tangent plane), a huge
 /// light close over the ground (α → π/2); with a plane straddling the light cones. Finite, non-negative,
@@ -494,8 +664,8 @@ fn cut_takes_far_nodes_whole() {
     let whole = Twin::new(&LobesOptions::default()).expect("tables");
     let leaves = Twin::new(&LobesOptions { take_whole: 0.0, ..Default::default() }).expect("tables");
     let tan_env = engine::passes::shade::lobes::MASK_MAX_HALF_ANGLE.tan();
-    let (b_whole, o_whole) = whole.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
-    let (b_leaves, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    let (b_whole, o_whole) = whole.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud, MaskKind::EnvMap);
+    let (b_leaves, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud, MaskKind::EnvMap);
     eprintln!("environment mask: {} blockers whole, {} as leaves", b_whole.len(), b_leaves.len());
     assert!(!o_whole && !o_leaves);
     assert_eq!(b_leaves.len(), 64);
@@ -525,9 +695,9 @@ fn coarsening_retries_an_overflowing_cut() {
     let once = Twin::new(&LobesOptions { coarsen: 0, ..fine.clone() }).expect("tables");
     let retried = Twin::new(&fine).expect("tables");
     let leaves = Twin::new(&LobesOptions { take_whole: 0.0, ..Default::default() }).expect("tables");
-    let (b_once, o_once) = once.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
-    let (b_retried, o_retried) = retried.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
-    let (_, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud);
+    let (b_once, o_once) = once.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud, MaskKind::EnvMap);
+    let (b_retried, o_retried) = retried.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud, MaskKind::EnvMap);
+    let (_, o_leaves) = leaves.gather(DVec3::ZERO, n, n, tan_env, 5, &cloud, MaskKind::EnvMap);
     eprintln!(
         "coarsening: {} blockers without retry (overflow {o_once}), {} with (overflow {o_retried})",
         b_once.len(),
@@ -662,7 +832,7 @@ fn the_papers_five_spheres_are_within_three_percent() {
 /// (option `budget`), in the shader and the twin alike; since a cell tests only the blockers that met its
 /// parent, the default budget is no longer reached here. The paper's set-up (`examples/lamp_key.toml`) at depth
 /// 6, 80×60, GPU = twin at every 2nd receiver, at the default budget (reached nowhere: 0 receivers on both
-/// sides) and at `budget=1024` (the light masks reach it at most receivers; the GPU's count, which includes
+/// sides) and at `budget=512` (the light masks reach it at a quarter of the receivers, 1024 at 9 % since the depth adaptation; the GPU's count, which includes
 /// the environment mask's, is at least the twin's count of light masks).
 #[test]
 fn deep_masks_stay_within_the_loop_budget_and_match_the_twin() {
@@ -674,7 +844,7 @@ fn deep_masks_stay_within_the_loop_budget_and_match_the_twin() {
     let planes = engine::resources::blockers::gather_planes(&scene).expect("planes");
     let lights = twin_lights(&scene);
     let eye = scene.camera.eye.as_dvec3();
-    for (spec, budget) in [("lobes:depth=6", MASK_WORK_BUDGET), ("lobes:depth=6,budget=1024", 1024)] {
+    for (spec, budget) in [("lobes:depth=6", MASK_WORK_BUDGET), ("lobes:depth=6,budget=512", 512)] {
         let settings = RenderSettings { width: 80, height: 60, technique: spec.into(), ..Default::default() };
         let (hdr, g, world) = render_for_twin(&gpu, &scene, settings.clone());
         assert_finite(&hdr, spec);

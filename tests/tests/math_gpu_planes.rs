@@ -1,13 +1,14 @@
 //! GPU (f32 GLSL, shaders-glsl/common/planes.glsl) vs CPU (f64, engine_blockers::plane) twins through
-//! shaders-glsl/tests/planes_twin.comp (layout documented there: 26 floats in, 14 out per case): the
-//! self-shadowing rule, the ray hit and a rectangle's edge normals, for random half-spaces and
-//! rectangles (tilted, both sides, receivers near and far). The CPU twin sees the f32 record
+//! shaders-glsl/tests/planes_twin.comp (layout documented there: 29 floats in, 15 out per case): the
+//! self-shadowing rule, the ray hit, a rectangle's edge normals and the projected (cosine-weighted) solid
+//! angle of the blocked directions for a random receiver normal, for random half-spaces and rectangles
+//! (tilted, both sides, receivers near and far). The CPU twin sees the f32 record
 //! (engine::resources::blockers::GpuBlockerPlane) widened to f64.
 //!
 //! Cases within f32 rounding of a decision (the receiver at ε from the plane, a ray grazing the plane
 //! or crossing the rectangle's edge) may decide either way and are left out of the decision checks;
 //! every other decision must agree, and hit distances to 1e-4 relative (the f32 quotient of two
-//! differences of O(10) quantities), edge normals to 1e-4.
+//! differences of O(10) quantities), edge normals to 1e-4, projected solid angles to 1e-4 (of π).
 
 use engine::gpu::testing::{run_f32_kernel, test_gpu};
 use engine::math::rng::Pcg32;
@@ -15,8 +16,8 @@ use engine::resources::blockers::GpuBlockerPlane;
 use engine::scene::blockers::BlockerPlane;
 use glam::DVec3;
 
-const IN: usize = 26;
-const OUT: usize = 14;
+const IN: usize = 29;
+const OUT: usize = 15;
 
 fn v(a: [f64; 3]) -> DVec3 {
     DVec3::from_array(a)
@@ -60,10 +61,11 @@ fn planes_glsl_matches_its_f64_twin() {
         let d = v(rng.unit_vector());
         let d = if rng.next_f64() < 0.5 { (d - m * (2.0 * h.signum())).normalize() } else { d };
         let t_max = if rng.next_f64() < 0.3 { rng.uniform(0.1, 5.0) } else { 1e30 };
-        cases.push((record, p, o, d, t_max));
+        let n = v(rng.unit_vector());
+        cases.push((record, p, o, d, t_max, n));
     }
     let mut input = Vec::with_capacity(cases.len() * IN);
-    for (r, p, o, d, t_max) in &cases {
+    for (r, p, o, d, t_max, n) in &cases {
         let f = |x: DVec3| [x.x as f32, x.y as f32, x.z as f32];
         input.extend_from_slice(&r.plane);
         input.extend_from_slice(&r.center);
@@ -73,25 +75,27 @@ fn planes_glsl_matches_its_f64_twin() {
         input.extend_from_slice(&f(*o));
         input.extend_from_slice(&f(*d));
         input.push(*t_max as f32);
+        input.extend_from_slice(&f(*n));
     }
     let gpu = test_gpu().expect("GPU");
     let out =
         run_f32_kernel(&gpu, "tests/planes_twin.comp", &input, cases.len() * OUT, cases.len() as u32).expect("kernel");
     gpu.shutdown().expect("clean teardown");
     assert!(out.iter().all(|x| x.is_finite()), "a non-finite output");
-    let (mut decided, mut hits, mut worst_t, mut worst_e) = (0, 0, 0.0f64, 0.0f64);
-    for (k, (r, p, o, d, t_max)) in cases.iter().enumerate() {
+    let (mut decided, mut hits, mut worst_t, mut worst_e, mut worst_o) = (0, 0, 0.0f64, 0.0f64, 0.0f64);
+    for (k, (r, p, o, d, t_max, n)) in cases.iter().enumerate() {
         let pl = from_record(r);
         let w = &out[k * OUT..(k + 1) * OUT];
         // The f32-rounded inputs, as the shader read them.
         let r32 = |x: DVec3| DVec3::new(x.x as f32 as f64, x.y as f32 as f64, x.z as f32 as f64);
-        let (p, o, d, t_max) = (r32(*p), r32(*o), r32(*d), *t_max as f32 as f64);
+        let (p, o, d, t_max, n) = (r32(*p), r32(*o), r32(*d), *t_max as f32 as f64, r32(*n));
         let h = pl.height(p);
         if (h.abs() - pl.epsilon).abs() < 1e-5 * (1.0 + pl.offset.abs() + p.length()) {
             continue; // at the tolerance: either side is right in f32
         }
         assert_eq!(w[0] == 1.0, pl.blocks_receiver(p), "case {k}: the self-shadowing rule (height {h:e})");
         decided += 1;
+        worst_o = worst_o.max((w[14] as f64 - pl.projected_solid_angle(p, n)).abs());
         if let Some(e) = pl.edge_normals(p) {
             for (j, e) in e.iter().enumerate() {
                 let g = DVec3::new(w[2 + 3 * j] as f64, w[3 + 3 * j] as f64, w[4 + 3 * j] as f64);
@@ -117,8 +121,12 @@ fn planes_glsl_matches_its_f64_twin() {
             hits += 1;
         }
     }
-    eprintln!("{decided} decided cases, {hits} hits: worst hit distance {worst_t:.2e} relative, worst edge normal {worst_e:.2e}");
+    eprintln!(
+        "{decided} decided cases, {hits} hits: worst hit distance {worst_t:.2e} relative, worst edge normal \
+         {worst_e:.2e}, worst projected solid angle {worst_o:.2e}"
+    );
     assert!(decided > 3500 && hits > 500, "too few cases decided ({decided}) or hit ({hits})");
     assert!(worst_t < 1e-4, "hit distance {worst_t}");
     assert!(worst_e < 1e-4, "edge normal {worst_e}");
+    assert!(worst_o < 1e-4 * std::f64::consts::PI, "projected solid angle {worst_o}");
 }

@@ -9,7 +9,9 @@
 use super::{Leaves, LobesOptions};
 use crate::tables::default_dir;
 use engine_blockers::bvh::{GpuBvhNode, SphereBvh, INVALID};
-use engine_blockers::geom::{blocker_for_receiver, cone_intersects_sphere, subtended_half_angle, Cone, Sphere};
+use engine_blockers::geom::{
+    blocker_for_receiver, blocker_for_receiver_alpha, cone_intersects_sphere, subtended_half_angle, Cone, Sphere,
+};
 use engine_blockers::plane::BlockerPlane;
 use engine_math::lobes::{
     angle_between, product_axis, product_log_peak, CapTable, HemisphereTable, ProductTable, MAX_EXPONENT,
@@ -18,6 +20,10 @@ use engine_math::table_gen::MathTable;
 use engine_math::tables::Table;
 use glam::DVec3;
 use std::f64::consts::PI;
+
+/// Depth adaptation: a partial cell whose products are bounded below `ADAPT` × t_i × |U| is not refined
+/// (`LOBES_ADAPT` in shade.glsl; [`Twin::cell_negligible`]).
+pub const ADAPT: f64 = 300.0;
 
 /// A lobe with an RGB scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,6 +104,20 @@ pub struct LightTerms {
     /// S (green channel) by the depth of its leaves before the per-depth light weights (light masks
     /// only): S = Σ_d w_d `s_by_depth[d]` when nothing is pruned (the weight fit's regressors).
     pub s_by_depth: [f64; super::WEIGHT_DEPTHS],
+    /// The environment's mask with `env=map` ([`MaskKind::EnvMap`]): the light of its free cells and of the
+    /// uncovered share of its half-weight leaves (the shader's `g_env_free`).
+    pub free: [f64; 3],
+}
+
+/// Which mask [`Twin::mask`] builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaskKind {
+    /// A light's: its planes tested, its leaves weighted by depth ([`LobesOptions::light_weights`]).
+    Light,
+    /// The environment's with `env=map`: unit weights, and the free light ([`LightTerms::free`]) beside S.
+    EnvMap,
+    /// The environment's with `env=lobes`: unit weights, S only.
+    EnvLobes,
 }
 
 impl LightTerms {
@@ -267,34 +287,21 @@ impl Twin {
         RgbLobe { axis: n, e: 1.0, s: [1.0; 3] }
     }
 
-    /// The planes' part of the environment's visibility (the shader's `lobes_env_planes`): the product
-    /// over the plane blockers in front of `p` of their cosine-weighted visibility, exact for a
-    /// half-space, for a rectangle one minus the occlusion of its equal-solid-angle cap lobe.
+    /// The planes' part of the environment's visibility under a constant environment (the shader's
+    /// `lobes_env_planes`, whose radiance weights are then 1): the product over the plane blockers in front of
+    /// `p` of 1 − o/π, o the cosine-weighted solid angle each hides ([`BlockerPlane::projected_solid_angle`]:
+    /// exact for half-spaces and rectangles).
     pub fn env_planes(&self, p: DVec3, n: DVec3, planes: &[BlockerPlane]) -> f64 {
-        let mut v_hs = 1.0;
-        for pl in planes.iter().filter(|pl| pl.blocks_receiver(p)) {
-            match pl.corners() {
-                None => v_hs *= 0.5 * (1.0 + n.dot(pl.normal).clamp(-1.0, 1.0)),
-                Some(k) => {
-                    let a = k.map(|x| x - p);
-                    let omega = triangle_solid_angle(a[0], a[1], a[2]) + triangle_solid_angle(a[0], a[2], a[3]);
-                    let alpha = (1.0 - omega / (2.0 * PI)).clamp(-1.0, 1.0).acos();
-                    let centre = pl.rect.map(|r| r.0).unwrap_or(p) - p;
-                    let axis = super::super::shexp::cpu::cone_mean_direction(&a, centre).normalize();
-                    let cap = self.cap_lobe(axis, alpha, [1.0; 3], true, 1.0);
-                    let o = self.hemisphere_integral(&self.mul(&cap, &Self::cosine(n)), n)[0];
-                    v_hs *= (1.0 - o / PI).clamp(0.0, 1.0);
-                }
-            }
-        }
-        v_hs
+        planes.iter().map(|pl| (1.0 - pl.projected_solid_angle(p, n) / PI).clamp(0.0, 1.0)).product()
     }
 
     /// The environment's visibility under a constant environment (where the shader's prefiltered
-    /// weights are that constant): 1 − S/U of the cosine lobe through the mask about n (half-angle
-    /// [`super::MASK_MAX_HALF_ANGLE`], half-spaces left out of the mask), times the half-spaces'
-    /// exact cosine-weighted visibility. (The shader divides by the irradiance grid's E(n) = πL,
-    /// the twin by the table's U = ∫cos: they differ by the table's interpolation error.)
+    /// weights are that constant), `env=map`: the mask about n (half-angle [`super::MASK_MAX_HALF_ANGLE`],
+    /// planes left out of it) against the cosine lobe gives the hidden light S and the free light V of its
+    /// cells; with the band it leaves out, B = max(U − S − V, 0), the visibility is (V + B) / (S + V + B),
+    /// times the planes' ([`Self::env_planes`]); 0 when one blocker covers the whole mask. (The shader takes
+    /// E(n) = πL from the irradiance grid, the twin U = ∫cos from the table: they differ by the table's
+    /// interpolation error.)
     pub fn env_visibility(&self, p: DVec3, n: DVec3, spheres: &TwinBvh, planes: &[BlockerPlane]) -> f64 {
         let v_hs = self.env_planes(p, n, planes);
         if spheres.is_empty() {
@@ -303,19 +310,24 @@ impl Twin {
         let rl = [Self::cosine(n)];
         let u = self.hemisphere_integral(&rl[0], n)[0];
         let mut out = LightTerms { u: [u; 3], outside: true, ..Default::default() };
-        self.env_mask(&mut out, p, n, &rl, spheres);
+        self.env_mask(&mut out, p, n, &rl, spheres, MaskKind::EnvMap);
         if out.hidden {
-            0.0
+            return 0.0;
+        }
+        let band = (u - out.s[0] - out.free[0]).max(0.0);
+        let all = out.s[0] + out.free[0] + band;
+        if all > 0.0 {
+            (out.free[0] + band) / all * v_hs
         } else {
-            (1.0 - out.s[0] / u).max(0.0) * v_hs
+            v_hs
         }
     }
 
     /// The environment's mask about n (half-angle [`super::MASK_MAX_HALF_ANGLE`], one level deeper
     /// than the lights', no planes, unit leaf weights) against the lobes `rl`.
-    fn env_mask(&self, out: &mut LightTerms, p: DVec3, n: DVec3, rl: &[RgbLobe], spheres: &TwinBvh) {
+    fn env_mask(&self, out: &mut LightTerms, p: DVec3, n: DVec3, rl: &[RgbLobe], spheres: &TwinBvh, kind: MaskKind) {
         let tan_half = super::MASK_MAX_HALF_ANGLE.tan();
-        self.mask(out, p, n, n, tan_half, rl, spheres, &[], false, false, self.options.depth + 1);
+        self.mask(out, p, n, n, tan_half, rl, spheres, &[], kind, self.options.depth + 1);
     }
 
     /// `env=lobes` at a receiver: the environment as the cosine lobes `env` (scale · max(axis·v, 0)^e),
@@ -339,7 +351,7 @@ impl Twin {
         }
         let v_hs = self.env_planes(r.p, r.n, planes);
         if !spheres.is_empty() {
-            self.env_mask(&mut out, r.p, r.n, &rl, spheres);
+            self.env_mask(&mut out, r.p, r.n, &rl, spheres, MaskKind::EnvLobes);
         }
         (out, v_hs)
     }
@@ -384,14 +396,17 @@ impl Twin {
             return out;
         }
         let tan_half = (o.extent * alpha).min(super::MASK_MAX_HALF_ANGLE).tan();
-        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, true, true, o.depth);
+        self.mask(&mut out, p, n, axis, tan_half, &rl, spheres, planes, MaskKind::Light, o.depth);
         out
     }
 
     /// The shader's `lobes_gather`: the blockers of the mask about `axis` (square half-side `tan_half`,
     /// maximal depth `depth`) as (direction, half-angle), from the cut with `take_whole` cells, retried
     /// with the threshold doubled while it overflows [`super::MAX_BLOCKERS`], at most `coarsen` times;
-    /// and whether the last cut still overflowed (its excess dropped).
+    /// and whether the last cut still overflowed (its excess dropped). The environment's masks see each sphere
+    /// through SHEXP §6.2's rules with the radius scale α, a light's through the plain rules (the shader's
+    /// `lobes_light_visit`).
+    #[allow(clippy::too_many_arguments)]
     pub fn gather(
         &self,
         p: DVec3,
@@ -400,13 +415,14 @@ impl Twin {
         tan_half: f64,
         depth: u32,
         spheres: &TwinBvh,
+        kind: MaskKind,
     ) -> (Vec<(DVec3, f64)>, bool) {
         let o = &self.options;
         let corner = (tan_half * 2f64.sqrt()).atan();
         let mut cells = o.take_whole as f32 as f64 * 2.0 * tan_half / (1u32 << depth.min(super::MAX_DEPTH)) as f64;
         let mut i = 0;
         loop {
-            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres);
+            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres, kind != MaskKind::Light);
             if !overflow || cells.is_nan() || cells <= 0.0 || i >= o.coarsen {
                 return (blockers, overflow);
             }
@@ -415,8 +431,16 @@ impl Twin {
         }
     }
 
-    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only).
-    fn collect(p: DVec3, n: DVec3, axis: DVec3, corner: f64, cells: f64, bvh: &TwinBvh) -> (Vec<(DVec3, f64)>, bool) {
+    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only); `alpha`: the receiver rules with α.
+    fn collect(
+        p: DVec3,
+        n: DVec3,
+        axis: DVec3,
+        corner: f64,
+        cells: f64,
+        bvh: &TwinBvh,
+        alpha: bool,
+    ) -> (Vec<(DVec3, f64)>, bool) {
         let cone = Cone::new(p, axis, corner);
         let mut blockers = Vec::new();
         let mut overflow = false;
@@ -434,7 +458,8 @@ impl Twin {
                 stack.push(node.left);
                 continue;
             }
-            let Some(b) = blocker_for_receiver(p, n, &s) else { continue };
+            let b = if alpha { blocker_for_receiver_alpha(p, n, &s) } else { blocker_for_receiver(p, n, &s) };
+            let Some(b) = b else { continue };
             if b.radius <= 0.0 {
                 continue;
             }
@@ -449,9 +474,58 @@ impl Twin {
         (blockers, overflow)
     }
 
+    /// The lobe of a mask cell (the shader's `lobes_cell_lobe`): the cap lobe of its bounding cone
+    /// (half-angle `gamma` about `centre`), scaled so that its integral is `weight` × the cell's solid angle.
+    fn cell_lobe(&self, raw: &[DVec3; 4], centre: DVec3, gamma: f64, weight: f64) -> RgbLobe {
+        let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
+        let e = self.cap.exponent(gamma);
+        RgbLobe { axis: centre, e, s: [weight * omega * (e + 1.0) / (2.0 * PI); 3] }
+    }
+
+    /// One visibility product ∫_{Ω+} (c · cell) (the shader's `lobes_leaf_product`), counted in `out`; `None`
+    /// (pruned, counted) when its luminance is below t_i × |U|.
+    fn cell_product(
+        &self,
+        c: &RgbLobe,
+        cell: &RgbLobe,
+        n: DVec3,
+        u_lum: f64,
+        out: &mut LightTerms,
+    ) -> Option<[f64; 3]> {
+        let v = self.hemisphere_integral(&self.mul(c, cell), n);
+        out.products += 1;
+        if lum(v).abs() < self.options.threshold * u_lum.abs() {
+            out.pruned += 1;
+            return None;
+        }
+        Some(v)
+    }
+
+    /// The shader's `lobes_cell_negligible` (depth adaptation): whether a partial cell (bounding cone of
+    /// half-angle `gamma` about `centre`) can add so little through the lobes `rl` that it is not refined: its
+    /// bound 2 Ω_γ Σ_k |rl_k| max_cell rl_k (Ω_γ = 4π sin²(γ/2); the maximum at the cell's point nearest the
+    /// lobe's axis) below [`ADAPT`] × t_i × |U|.
+    fn cell_negligible(&self, rl: &[RgbLobe], centre: DVec3, gamma: f64, u_lum: f64) -> bool {
+        let bound: f64 = rl
+            .iter()
+            .map(|c| {
+                let theta = angle_between(c.axis.to_array(), centre.to_array());
+                let near = if theta <= gamma { 1.0 } else { (theta - gamma).cos() };
+                if near > 0.0 {
+                    lum(c.s).abs() * (c.e * near.ln()).exp()
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        let omega = 4.0 * PI * (0.5 * gamma).sin().powi(2);
+        2.0 * omega * bound < ADAPT * self.options.threshold * u_lum.abs()
+    }
+
     /// The quad-tree mask about `axis` (square half-side `tan_half` in gnomonic coordinates) against
     /// the lobes `rl`: adds S, the counts and the flags to `out` (whose `u` is the pruning scale). A
-    /// `light` mask weighs its leaves by depth ([`LobesOptions::light_weights`]).
+    /// light's mask tests `planes` and weighs its leaves by depth ([`LobesOptions::light_weights`]); the
+    /// environment's with `env=map` also adds its free light to [`LightTerms::free`].
     #[allow(clippy::too_many_arguments)]
     pub fn mask(
         &self,
@@ -463,16 +537,16 @@ impl Twin {
         rl: &[RgbLobe],
         spheres: &TwinBvh,
         planes: &[BlockerPlane],
-        with_planes: bool,
-        light: bool,
+        kind: MaskKind,
         depth: u32,
     ) {
         let o = &self.options;
+        let light = kind == MaskKind::Light;
         let u_lum = lum(out.u);
-        let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres);
+        let (blockers, overflow) = self.gather(p, n, axis, tan_half, depth, spheres, kind);
         out.overflow |= overflow;
         let (t, b) = orthonormal_basis(axis);
-        let tested: &[BlockerPlane] = if with_planes { planes } else { &[] };
+        let tested: &[BlockerPlane] = if light { planes } else { &[] };
         // The shader's cell state, counting its work (each blocker and plane tested, in its order). Only the
         // blockers in `subset` (those that met the parent cell) are tested; on return it holds those that meet
         // this cell (unchanged when one covers it).
@@ -546,6 +620,15 @@ impl Twin {
             let gamma = q.iter().map(|x| angle_between(centre.to_array(), x.to_array())).fold(0.0, f64::max);
             work += 4;
             let st = state(&q, centre, gamma, &mut subset, &mut work);
+            // A free cell's light (the environment's mask, env=map).
+            if st == 0 && kind == MaskKind::EnvMap {
+                if let Some(v) =
+                    self.cell_product(&rl[0], &self.cell_lobe(&raw, centre, gamma, o.weight), n, u_lum, out)
+                {
+                    (0..3).for_each(|k| out.free[k] += v[k]);
+                }
+                continue;
+            }
             let refine = work < o.budget;
             // A cell the budget keeps from splitting (the shader counts its receiver).
             out.budget_limited |= !refine && ((st == 2 && d < o.split.min(depth_max)) || (st == 1 && d < depth_max));
@@ -563,7 +646,10 @@ impl Twin {
             }
             match st {
                 0 => continue,
-                1 if d < depth_max && refine => {
+                1 if d < depth_max
+                    && refine
+                    && (kind == MaskKind::EnvLobes || !self.cell_negligible(rl, centre, gamma, u_lum)) =>
+                {
                     // Pushed in the shader's order (k = 0..3), popped last first.
                     for k in 0..4u32 {
                         stack.push((d + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), subset));
@@ -575,18 +661,20 @@ impl Twin {
             }
             let leaf_weight = if st == 1 && o.leaves == Leaves::Half { 0.5 } else { 1.0 };
             out.leaves += 1;
-            let omega = triangle_solid_angle(raw[0], raw[1], raw[2]) + triangle_solid_angle(raw[0], raw[2], raw[3]);
-            let e = self.cap.exponent(gamma);
             let w_d = if light { o.light_weights[d as usize] } else { 1.0 };
-            let unit = leaf_weight * o.weight * omega * (e + 1.0) / (2.0 * PI);
-            let leaf = RgbLobe { axis: centre, e, s: [unit * w_d; 3] };
-            for c in rl {
-                let v = self.hemisphere_integral(&self.mul(c, &leaf), n);
-                out.products += 1;
-                if lum(v).abs() < o.threshold * u_lum.abs() {
-                    out.pruned += 1;
-                    continue;
+            if kind == MaskKind::EnvMap {
+                // The leaf's light at unit weight: its covered share hidden, the rest free.
+                if let Some(v) =
+                    self.cell_product(&rl[0], &self.cell_lobe(&raw, centre, gamma, o.weight), n, u_lum, out)
+                {
+                    (0..3).for_each(|k| out.s[k] += leaf_weight * v[k]);
+                    (0..3).for_each(|k| out.free[k] += (1.0 - leaf_weight) * v[k]);
                 }
+                continue;
+            }
+            let leaf = self.cell_lobe(&raw, centre, gamma, leaf_weight * o.weight * w_d);
+            for c in rl {
+                let Some(v) = self.cell_product(c, &leaf, n, u_lum, out) else { continue };
                 (0..3).for_each(|k| out.s[k] += v[k]);
                 if light && w_d > 0.0 {
                     out.s_by_depth[d as usize] += v[1] / w_d;
