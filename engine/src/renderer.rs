@@ -162,7 +162,8 @@ impl Renderer {
             return Err(crate::options::OptionError(format!(
                 "resolution {}x{}: width and height must be in 1..={MAX_RESOLUTION}",
                 settings.width, settings.height
-            )).into());
+            ))
+            .into());
         }
         let (w, h) = (settings.width, settings.height);
         let mut p = Parts::default();
