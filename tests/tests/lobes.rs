@@ -263,7 +263,8 @@ fn environment_lobes_match_the_f64_twin() {
     let key = light([-0.6, 2.2, -0.5], 0.3, [12.0, 9.0, 6.0]);
     let rect =
         BlockerPlane::rectangle(DVec3::new(0.8, 1.0, 0.2), DVec3::new(0.25, 0.0, 0.0), DVec3::new(0.0, 0.0, 0.2));
-    let spec = format!("lobes:env=lobes,K={k}");
+    // The whole map: the twin's environment is the fit of `env`, not a residual (the split is tested in env_lights.rs).
+    let spec = format!("lobes:env=lobes,K={k},env_lights=off");
     let o = LobesOptions { env_lobes: k, ..Default::default() };
     for planes in [vec![], vec![BlockerPlane::half_space(DVec3::ZERO, DVec3::Y), rect]] {
         let mut s = scene(vec![key], planes.clone());
@@ -619,7 +620,7 @@ fn twin_hard_cases_are_sane() {
 }
 
 // Overflow is counted and reported, never silent: on `chess` (308 spheres) with the leaves-only gather
-// (`take_whole=0`) most receivers see more than MAX_BLOCKERS blockers in the environment mask's cone and the
+// (`take_whole=0`) and the whole map (`env_lights=off`: no lights) most receivers see more than MAX_BLOCKERS blockers in the environment mask's cone and the
 // technique says so; on `lamp-one` (the bunny's 64 spheres) at the defaults none does; a second call without a
 // frame in between reports nothing (the counters restart). The work line (products, leaves) counts the frame's
 // receivers.
@@ -627,7 +628,7 @@ fn twin_hard_cases_are_sane() {
 fn blocker_overflow_is_reported() {
     let gpu = engine_tests::gpu();
     let mut lines = Vec::new();
-    for (name, spec) in [("chess", "lobes:take_whole=0"), ("lamp-one", "lobes")] {
+    for (name, spec) in [("chess", "lobes:take_whole=0,env_lights=off"), ("lamp-one", "lobes")] {
         let scene = demos::scenes::build(name, None).expect("scene");
         let settings = RenderSettings { width: 32, height: 24, technique: spec.into(), ..Default::default() };
         let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
@@ -766,8 +767,9 @@ fn phase_variants_stop_after_their_phase() {
     let gpu = engine_tests::gpu();
     let scene = demos::scenes::build("lamp-one", None).expect("scene");
     let mut runs = Vec::new();
-    for phase in engine::passes::shade::lobes::PHASES.iter().map(|p| format!("lobes:phase={p}")).chain(["lobes".into()])
-    {
+    // The whole map, so that the scene's one light is the only light (R × L products before the masks).
+    let specs = engine::passes::shade::lobes::PHASES.iter().map(|p| format!("lobes:phase={p},env_lights=off"));
+    for phase in specs.chain(["lobes:env_lights=off".into()]) {
         let settings = RenderSettings { width: 24, height: 18, technique: phase.clone(), ..Default::default() };
         let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
         r.render(&gpu).expect("frame");
