@@ -349,6 +349,11 @@ vec3 shade_point(ShadePoint sp) {
         e_sh += env_sh[i].rgb * pv[i];
         e_free += env_sh[i].rgb * hv[i];
     }
+    // Ringing: in a crevice the order-n product L·(H * g) can fall to or below 0 where the true irradiance is small
+    // but positive (black pixels where the reference is lit). There, and only there, the visibility's mean over
+    // the sphere (g_0 Y_0, the DC term, non-negative for any exp method) times the unshadowed irradiance; twin:
+    // shexp::cpu::ringing_fallback.
+    if (shadowed && any(lessThanEqual(e_sh, vec3(0.0)))) e_sh = max(g[0] * 0.28209479177387814, 0.0) * max(e_free, vec3(0.0));
     vec3 ratio = vec3(1.0);
     for (int c = 0; c < 3; ++c) {
         if (e_free[c] > 1e-20) ratio[c] = clamp(e_sh[c] / e_free[c], 0.0, 1.0);
