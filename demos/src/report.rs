@@ -67,8 +67,21 @@ pub struct Sweep {
     pub scenes: Vec<SceneSpec>,
     /// Technique specs as `demo --technique` takes them (`none`, `isg:patches=8,K=4`, …).
     pub techniques: Vec<String>,
+    /// More specs measured per pixel only, after `techniques` (variants whose per-vertex figures would add
+    /// little for the time they take on lavapipe: the environment split on and off, a higher SH order).
+    #[serde(default)]
+    pub pixel_techniques: Vec<String>,
     /// `pixel` and/or `vertex`.
     pub shading: Vec<String>,
+}
+
+impl Sweep {
+    /// The technique specs measured at shading rate `shading`: every one of `techniques`, and per pixel also
+    /// `pixel_techniques`.
+    pub fn techniques_at(&self, shading: &str) -> impl Iterator<Item = &String> {
+        let extra = if shading == "pixel" { &self.pixel_techniques[..] } else { &[] };
+        self.techniques.iter().chain(extra)
+    }
 }
 
 fn yes() -> bool {
@@ -140,7 +153,7 @@ pub fn load_sweep(path: &Path, name: &str) -> Result<Sweep> {
 /// Every technique spec of a sweep parses against the technique registry (before any GPU work), and
 /// the report rows are measured against a reference, so `reference` itself is not a sweep entry.
 pub fn validate_techniques(sweep: &Sweep) -> Result<()> {
-    for spec in &sweep.techniques {
+    for spec in sweep.techniques.iter().chain(&sweep.pixel_techniques) {
         let (entry, _) = engine::passes::shade::parse_technique(spec)?;
         if entry.name == "reference" {
             bail!("technique '{spec}': the reference is measured against itself; leave it out of the sweep");
@@ -364,7 +377,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path, command: &str) -> Result<Result
     check_scenes(sweep)?;
     let (w, h) = (sweep.width, sweep.height);
     let frames = sweep.frames.max(5);
-    let total: usize = sweep.scenes.iter().map(|s| shadings(s).len() * sweep.techniques.len()).sum();
+    let total: usize = sweep.scenes.iter().flat_map(shadings).map(|s| sweep.techniques_at(&s).count()).sum();
     let mut done = 0;
     let t0 = std::time::Instant::now();
     let cache = sweep.reference_cache.as_ref().map(|d| workspace_root().join(d));
@@ -408,7 +421,7 @@ pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path, command: &str) -> Result<Result
         let has_spheres = scene.blockers.spheres.iter().any(Option::is_some);
         let mut measured: Vec<(String, Measured)> = Vec::new();
         for shading in &shadings(spec) {
-            for tech in &sweep.techniques {
+            for tech in sweep.techniques_at(shading) {
                 done += 1;
                 let m = measure::measure_technique(gpu, &scene, settings(shading, tech)?, frames)
                     .with_context(|| format!("{label} / {shading} / {tech}"))?;

@@ -152,3 +152,28 @@ fn every_shipped_sweep_loads() {
         report::load_sweep(&path, name).unwrap_or_else(|e| panic!("sweep '{name}': {e:#}"));
     }
 }
+
+// `pixel_techniques` are measured per pixel only, after `techniques`, and are checked against the registry like
+// them: a bad spec there fails at load, before any GPU work.
+#[test]
+fn pixel_only_techniques_are_measured_per_pixel_and_validated() {
+    let dir = std::env::temp_dir().join(format!("report-pixel-only-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("sweep.json");
+    let sweep = |extra: &str| {
+        format!(
+            r#"{{"s": {{"width": 8, "height": 6, "frames": 1, "fraction": 0.1, "max_spp": 16, "samples_per_frame": 16,
+                "scenes": [{{"scene": "bunny"}}], "techniques": ["none", "isg"], "pixel_techniques": [{extra}],
+                "shading": ["pixel", "vertex"]}}}}"#
+        )
+    };
+    std::fs::write(&path, sweep(r#""shexp:env_lights=off""#)).unwrap();
+    let s = report::load_sweep(&path, "s").expect("sweep loads");
+    let at = |rate: &str| s.techniques_at(rate).cloned().collect::<Vec<_>>();
+    assert_eq!(at("pixel"), ["none", "isg", "shexp:env_lights=off"]);
+    assert_eq!(at("vertex"), ["none", "isg"]);
+    std::fs::write(&path, sweep(r#""shexp:env_lights=maybe""#)).unwrap();
+    let err = format!("{:#}", report::load_sweep(&path, "s").unwrap_err());
+    assert!(err.contains("env_lights"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
