@@ -27,10 +27,20 @@ fn every_binary_initialises_the_logger() {
                 if rel.ends_with("src/main.rs") || rel.contains("src/bin/") {
                     mains.push((rel, std::fs::read_to_string(&p).unwrap()));
                 }
+            } else if name == "Cargo.toml" {
+                // A `[[bin]]` with its own `path` (tools/fuzz's process-fuzz is src/process.rs).
+                for path in bin_paths(&std::fs::read_to_string(&p).unwrap()) {
+                    let file = dir.join(path);
+                    let rel = file.strip_prefix(root()).unwrap().to_string_lossy().to_string();
+                    if !(rel.ends_with("src/main.rs") || rel.contains("src/bin/")) {
+                        mains.push((rel, std::fs::read_to_string(&file).unwrap()));
+                    }
+                }
             }
         }
     }
-    assert!(mains.len() >= 18, "binaries found: {:?}", mains.iter().map(|m| &m.0).collect::<Vec<_>>());
+    assert!(mains.iter().any(|m| m.0.ends_with("tools/fuzz/src/process.rs")), "the [[bin]] paths are read");
+    assert!(mains.len() >= 19, "binaries found: {:?}", mains.iter().map(|m| &m.0).collect::<Vec<_>>());
     for (rel, text) in &mains {
         let body = &text[text.find("fn main(").unwrap_or_else(|| panic!("{rel}: no fn main"))..];
         let first = body.lines().skip(1).find(|l| !l.trim_start().starts_with("//")).unwrap_or("");
@@ -39,6 +49,22 @@ fn every_binary_initialises_the_logger() {
             "{rel}: main does not set up the logger first (first line: {first})"
         );
     }
+}
+
+/// The `path = "…"` of every `[[bin]]` table of a Cargo.toml.
+fn bin_paths(toml: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut in_bin = false;
+    for line in toml.lines().map(str::trim) {
+        if line.starts_with('[') {
+            in_bin = line == "[[bin]]";
+        } else if let Some(v) = line.strip_prefix("path").map(str::trim_start).and_then(|r| r.strip_prefix('=')) {
+            if in_bin {
+                out.push(v.trim().trim_matches('"').to_string());
+            }
+        }
+    }
+    out
 }
 
 /// The demo on an OBJ whose .mtl is missing: the loader's warning is shown with RUST_LOG unset, hidden with

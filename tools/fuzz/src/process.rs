@@ -22,9 +22,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const USAGE: &str = "usage: process-fuzz --demo PATH [--runs N per place (300)] [--seed K (1)] [--timeout S (30)] \
-                     [--memory-mib M (4096)] [--dir D (out/process-fuzz)] [--only NAME] [--markdown FILE]";
-
 /// Most bytes of stderr a refusal may print: an error names the file and says what is wrong in a line or two (a
 /// TOML error shows the line it stopped in); 4 kB is an input echoed.
 const MAX_STDERR: usize = 4096;
@@ -282,37 +279,53 @@ fn fuzz_place(s: &Settings, place: &Place, rng: &mut Rng) -> std::io::Result<Cou
     Ok(c)
 }
 
+/// Seeded mutations of every loader's files, each run through the `demo` binary as its own process.
+#[derive(clap::Parser, Debug)]
+#[command(name = "process-fuzz", after_help = places_help())]
+struct Args {
+    /// The demo binary (build it: cargo build --release -p demos --bin demo).
+    #[arg(long)]
+    demo: PathBuf,
+    /// Runs per place.
+    #[arg(long, default_value_t = 300)]
+    runs: u64,
+    /// Seed of the mutations.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Seconds before a run counts as a hang (at least 1).
+    #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u64).range(1..))]
+    timeout: u64,
+    /// Address-space cap of each run in MiB (at least 64).
+    #[arg(long = "memory-mib", default_value_t = 4096, value_parser = clap::value_parser!(u64).range(64..))]
+    memory_mib: u64,
+    /// Folder for the runs' files and the findings (emptied first).
+    #[arg(long, default_value = "out/process-fuzz")]
+    dir: PathBuf,
+    /// Only this place.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(PLACES.iter().map(|p| p.name)))]
+    only: Option<String>,
+    /// Write the counts as Markdown to this file (docs/process-fuzz.md).
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+}
+
+fn places_help() -> String {
+    format!("places: {}", PLACES.iter().map(|p| p.name).collect::<Vec<_>>().join(", "))
+}
+
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.iter().any(|a| a == "--help" || a == "-h") {
-        println!("{USAGE}\nplaces: {}", PLACES.iter().map(|p| p.name).collect::<Vec<_>>().join(", "));
-        return;
-    }
+    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
+    demos::init_logging();
+    let a = <Args as clap::Parser>::parse();
     let mut s = Settings {
-        demo: PathBuf::new(),
-        runs: 300,
-        seed: 1,
-        timeout: Duration::from_secs(30),
-        memory_kib: 4 << 20,
-        dir: PathBuf::from("out/process-fuzz"),
+        demo: a.demo,
+        runs: a.runs,
+        seed: a.seed,
+        timeout: Duration::from_secs(a.timeout),
+        memory_kib: a.memory_mib << 10,
+        dir: a.dir,
     };
-    let (mut only, mut markdown) = (None, None);
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let v = it.next().unwrap_or_else(|| fail(&format!("{a} needs a value")));
-        let num = |what: &str| v.parse::<u64>().unwrap_or_else(|_| fail(&format!("{what}: '{v}' is not a count")));
-        match a.as_str() {
-            "--demo" => s.demo = v.into(),
-            "--runs" => s.runs = num("--runs"),
-            "--seed" => s.seed = num("--seed"),
-            "--timeout" => s.timeout = Duration::from_secs(num("--timeout").max(1)),
-            "--memory-mib" => s.memory_kib = num("--memory-mib").max(64) << 10,
-            "--dir" => s.dir = v.into(),
-            "--only" => only = Some(v.clone()),
-            "--markdown" => markdown = Some(PathBuf::from(v)),
-            _ => fail(&format!("unknown option {a}")),
-        }
-    }
+    let (only, markdown) = (a.only, a.markdown);
     if !s.demo.is_file() {
         fail(&format!(
             "--demo '{}' is not the demo binary (build it: cargo build --release -p demos --bin demo)",
@@ -391,6 +404,6 @@ fn main() {
 }
 
 fn fail(message: &str) -> ! {
-    eprintln!("process-fuzz: {message}\n{USAGE}");
+    eprintln!("process-fuzz: {message}");
     std::process::exit(2)
 }

@@ -102,3 +102,33 @@ fn command_line_errors_name_the_option() {
     let o = run(&["--help"]);
     assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("targets: obj"));
 }
+
+/// process-fuzz's command line is clap's too: a malformed or out-of-range value, an unknown place or option is a
+/// usage error (exit 2) naming it, before any run; `--help` lists the places.
+#[test]
+fn process_fuzz_command_line_errors_name_the_option() {
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_process-fuzz")).args(args).output().unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+            String::from_utf8_lossy(&o.stdout).to_string(),
+        )
+    };
+    let demo = env!("CARGO_BIN_EXE_fuzz");
+    for (args, named) in [
+        (vec!["--demo", demo, "--runs", "abc"], "'--runs <RUNS>'"),
+        (vec!["--demo", demo, "--timeout", "0"], "'--timeout <TIMEOUT>'"),
+        (vec!["--demo", demo, "--memory-mib", "8"], "'--memory-mib <MEMORY_MIB>'"),
+        (vec!["--demo", demo, "--only", "nowhere"], "'--only <ONLY>'"),
+        (vec!["--demo", demo, "--bogus", "1"], "--bogus"),
+        (vec!["--runs", "1"], "--demo"),
+    ] {
+        let (code, err, _) = run(&args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(named), "{args:?}: {err}");
+    }
+    let (code, _, out) = run(&["--help"]);
+    assert_eq!(code, Some(0));
+    assert!(out.contains("places: obj"), "{out}");
+}
