@@ -69,7 +69,10 @@ impl BlockerBvhPass {
     /// Compiles the steps and allocates scratch for up to `capacity` spheres.
     pub fn new(gpu: &Gpu, capacity: u32) -> Result<Self> {
         if capacity > MAX_SPHERES {
-            return Err(GpuError::Other(format!("blocker_bvh: {capacity} spheres, at most {MAX_SPHERES}")));
+            return Err(crate::input::SceneInputError(format!(
+                "blocker_bvh: {capacity} spheres, at most {MAX_SPHERES}"
+            ))
+            .into());
         }
         let mut pipelines = Vec::with_capacity(SHADERS.len());
         for s in SHADERS {

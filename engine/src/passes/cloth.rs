@@ -17,7 +17,7 @@
 //! Everything is allocated in [`ClothPass::new`]; a frame allocates nothing. The state lives only in device
 //! memory; the host keeps the number of substeps it holds.
 
-use crate::gpu::{Binding, Buffer, BufferDesc, ComputePipeline, Gpu, GpuError, Recorder, Result};
+use crate::gpu::{Binding, Buffer, BufferDesc, ComputePipeline, Gpu, Recorder, Result};
 use crate::resources::GpuScene;
 pub use crate::scene::cloth::MAX_SUBSTEPS_PER_FRAME;
 use crate::scene::cloth::{cloth_instance, rest_positions, Cloth};
@@ -71,7 +71,7 @@ impl ClothPass {
     /// `cloth.sphere_count()` blocker spheres are the cloth's.
     pub fn new(gpu: &Gpu, scene: &Scene, gpu_scene: &GpuScene) -> Result<Option<Self>> {
         let Some(cloth) = scene.blockers.cloth.clone() else { return Ok(None) };
-        let (instance, vertex_base) = cloth_instance(scene, &cloth).map_err(GpuError::Other)?;
+        let (instance, vertex_base) = cloth_instance(scene, &cloth).map_err(crate::input::SceneInputError)?;
         let inst = &scene.instances[instance];
         let rest: Vec<[f32; 4]> = rest_positions(&cloth, &scene.meshes[inst.mesh].positions, inst.transform)
             .iter()
@@ -80,7 +80,10 @@ impl ClothPass {
         let spheres = cloth.sphere_count();
         let total = gpu_scene.blockers.sphere_count;
         if spheres > total {
-            return Err(GpuError::Other(format!("cloth: {spheres} generated spheres, the scene holds {total}")));
+            return Err(crate::input::SceneInputError(format!(
+                "cloth: {spheres} generated spheres, the scene holds {total}"
+            ))
+            .into());
         }
         let p = &cloth.params;
         let dt = p.substep;

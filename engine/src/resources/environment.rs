@@ -123,10 +123,11 @@ impl EnvironmentResources {
     /// uploaded on the first request of that order and shared from then on.
     pub fn sh_projection(&self, gpu: &Gpu, order: usize) -> Result<Ref<'_, ShProjection>> {
         if !(1..=engine_math::sh::MAX_ORDER).contains(&order) {
-            return Err(crate::gpu::GpuError::Other(format!(
+            return Err(crate::options::OptionError(format!(
                 "SH order {order}: supported 1..={}",
                 engine_math::sh::MAX_ORDER
-            )));
+            ))
+            .into());
         }
         let index = self.sh.borrow().iter().position(|p| p.order == order);
         let index = match index {
@@ -189,7 +190,7 @@ impl EnvSplit {
         center: glam::Vec3,
         radius: f32,
     ) -> Result<Self> {
-        params.check().map_err(crate::gpu::GpuError::Other)?;
+        params.check().map_err(crate::options::OptionError)?;
         let t0 = std::time::Instant::now();
         let decomposition = decompose(&environment.cpu, params);
         let decompose_seconds = t0.elapsed().as_secs_f64();

@@ -14,6 +14,8 @@
 
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
+use crate::input::SceneInputError;
+use crate::options::OptionError;
 use crate::resources::blockers::GpuVertexSkin;
 use crate::resources::layout::{FrameData, GpuObject, GpuVertex};
 use crate::resources::Geometry;
@@ -166,13 +168,14 @@ impl EnvSampling {
     pub fn build(env: &LatLongMap) -> Result<Self> {
         let (w, h) = (env.width, env.height);
         if w == 0 || h == 0 || env.texels.len() != w * h {
-            return Err(GpuError::Other(format!("environment {w}x{h} with {} texels", env.texels.len())));
+            return Err(SceneInputError(format!("environment {w}x{h} with {} texels", env.texels.len())).into());
         }
         if let Some(i) = env.texels.iter().position(|t| t.iter().any(|c| !c.is_finite() || *c < 0.0)) {
-            return Err(GpuError::Other(format!(
+            return Err(SceneInputError(format!(
                 "environment texel {i} is negative or not finite: {:?}",
                 env.texels[i]
-            )));
+            ))
+            .into());
         }
         let weight = |row: usize, col: usize| luminance(env.texel(col, row)) * texel_solid_angle(row, w, h);
         let total: f64 = (0..h).flat_map(|r| (0..w).map(move |c| (r, c))).map(|(r, c)| weight(r, c)).sum();
@@ -467,13 +470,14 @@ impl Reference {
     /// New options; accumulation restarts.
     pub fn set_options(&mut self, options: ReferenceOptions) -> Result<()> {
         if options.samples_per_frame == 0 || options.samples_per_frame > 4096 {
-            return Err(GpuError::Other(format!(
+            return Err(OptionError(format!(
                 "reference: samples per frame {} not in 1..=4096",
                 options.samples_per_frame
-            )));
+            ))
+            .into());
         }
         if !(options.ray_offset >= 0.0 && options.ray_offset < 0.1) {
-            return Err(GpuError::Other(format!("reference: ray offset {} not in [0, 0.1)", options.ray_offset)));
+            return Err(OptionError(format!("reference: ray offset {} not in [0, 0.1)", options.ray_offset)).into());
         }
         self.options = options;
         self.reset();
@@ -607,7 +611,7 @@ impl Reference {
     /// size, Chan et al.'s update): how `demo --spp N` accumulates exactly N in frames of at most 64.
     pub fn set_samples_per_frame(&mut self, samples: u32) -> Result<()> {
         if samples == 0 || samples > 4096 {
-            return Err(GpuError::Other(format!("reference: samples per frame {samples} not in 1..=4096")));
+            return Err(OptionError(format!("reference: samples per frame {samples} not in 1..=4096")).into());
         }
         self.options.samples_per_frame = samples;
         Ok(())

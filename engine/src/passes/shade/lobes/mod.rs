@@ -193,7 +193,7 @@ pub const ENTRY: TechniqueEntry = TechniqueEntry {
         samples: 0,
     },
     create: |gpu, o| {
-        let options = LobesOptions::from_options(o).map_err(GpuError::Other)?;
+        let options = LobesOptions::from_options(o).map_err(crate::options::OptionError)?;
         Ok(Box::new(Lobes::new(gpu, options)?))
     },
 };

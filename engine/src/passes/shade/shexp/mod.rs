@@ -373,10 +373,11 @@ pub const MAX_WORLD_PIXEL_VERTICES: u32 = 1 << 24;
 /// would round in the G-buffer), with a message that names the way out.
 pub fn check_world_pixel_vertices(o: &ShexpOptions, vertex_count: u32) -> Result<()> {
     if o.world_pixel_clusters && vertex_count > MAX_WORLD_PIXEL_VERTICES {
-        return Err(GpuError::Other(format!(
+        return Err(crate::input::SceneInputError(format!(
             "shexp: pixel_clusters=world needs at most {MAX_WORLD_PIXEL_VERTICES} vertices (the G-buffer holds a \
              triangle's first vertex as a float); this scene has {vertex_count}: use pixel_clusters=tiles"
-        )));
+        ))
+        .into());
     }
     Ok(())
 }
@@ -661,12 +662,13 @@ impl Shexp {
         }
         let bytes = CLUSTER_ENTRY_BYTES * entries;
         if bytes > MAX_CLUSTER_BYTES {
-            return Err(GpuError::Other(format!(
+            return Err(crate::options::OptionError(format!(
                 "shexp: {capacity} receiver clusters would need {} MiB of cut lists (at most {} MiB): use a larger \
                  cluster=T",
                 bytes >> 20,
                 MAX_CLUSTER_BYTES >> 20
-            )));
+            ))
+            .into());
         }
         let zeros = vec![[0u32; 2]; capacity as usize];
         let [heads, cut, pool, hashes] = crate::resources::make_buffers(
