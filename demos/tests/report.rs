@@ -134,6 +134,37 @@ fn tiny_sweep_runs_end_to_end() {
     assert!(images >= 6, "thumbnails in the README: {images}");
     let png = engine::output::read_png(&out.join("img/bunny-pixel-none.png")).expect("thumbnail PNG");
     assert_eq!((png.0, png.1), (sweep.width, sweep.height));
+
+    // The results page (what `--sweep readme` writes into docs/results) from the same results, so that the
+    // generator is exercised on every run, not only at the 45-minute regeneration: every file, a self-contained
+    // page, the hero picture, and the summary spliced into a README between its markers.
+    // Into the same folder, as `report` does: the page inlines the Pareto plots written there.
+    let site_dir = out.clone();
+    let readme_path = out.join("MANUAL.md");
+    let marked = format!("# before\n\n{}\nstale\n{}\n\nafter\n", demos::results_page::BEGIN, demos::results_page::END);
+    std::fs::write(&readme_path, &marked).unwrap();
+    let site = report::Site {
+        out: site_dir.to_string_lossy().into(),
+        hero_scene: "bunny".into(),
+        hero_techniques: sweep.techniques.clone(),
+        summary_techniques: sweep.techniques.clone(),
+        readme: Some(readme_path.to_string_lossy().into()),
+    };
+    demos::results_page::write(&site_dir, &sweep, &site, &res, "lavapipe", "cargo xtask report --tiny").expect("page");
+    for f in ["index.html", "README.md", "summary.md", "summary.svg", "hero.png"] {
+        assert!(site_dir.join(f).is_file(), "the results page lacks {f}");
+    }
+    let html = std::fs::read_to_string(site_dir.join("index.html")).unwrap();
+    assert!(html.contains("data:image/png;base64,"), "images are embedded");
+    for external in ["<script src", "<link ", "@import", "url(http"] {
+        assert!(!html.contains(external), "index.html loads something from outside: {external}");
+    }
+    let hero = engine::output::read_png(&site_dir.join("hero.png")).expect("hero PNG");
+    assert_eq!(hero.1, 3 * sweep.height, "the hero picture is scaled 3x");
+    let summary = std::fs::read_to_string(site_dir.join("summary.md")).unwrap();
+    let manual = std::fs::read_to_string(&readme_path).unwrap();
+    assert_eq!(demos::results_page::block_of(&manual), Some(summary.trim_end()), "{manual}");
+    assert!(manual.starts_with("# before") && manual.ends_with("after\n") && !manual.contains("stale"), "{manual}");
     let _ = std::fs::remove_dir_all(&out);
 }
 
