@@ -275,10 +275,10 @@ fn pass_level_refusals_are_typed_scene_errors() {
     use engine::passes::shade::shexp::{check_world_pixel_vertices, ShexpOptions, MAX_WORLD_PIXEL_VERTICES};
     let mut env = engine::math::envmap::LatLongMap::constant(8, 4, [1.0; 3]);
     env.texels[5] = [f32::NAN, 0.0, 0.0];
-    let e = engine::passes::shade::reference::EnvSampling::build(&env).err().expect("a NaN texel is refused");
+    let Err(e) = engine::passes::shade::reference::EnvSampling::build(&env) else { panic!("a NaN texel is refused") };
     assert!(matches!(&e, GpuError::Scene(_)) && e.to_string().contains("texel 5"), "{e:?}");
     let o = ShexpOptions { world_pixel_clusters: true, ..Default::default() };
-    let e = check_world_pixel_vertices(&o, MAX_WORLD_PIXEL_VERTICES + 1).err().expect("too many vertices");
+    let Err(e) = check_world_pixel_vertices(&o, MAX_WORLD_PIXEL_VERTICES + 1) else { panic!("too many vertices") };
     assert!(matches!(&e, GpuError::Scene(_)) && e.to_string().contains("pixel_clusters=tiles"), "{e:?}");
     assert!(check_world_pixel_vertices(&o, MAX_WORLD_PIXEL_VERTICES).is_ok());
 }
