@@ -134,7 +134,7 @@ fn host_structs() -> Vec<HostLayout> {
         layout_check!(GpuSgLobe, "shade/isg/pixel.comp", struct "EnvLobe", [axis, lambda, mu, pad0]),
         layout_check!(GpuLobesParams, "shade/lobes/pixel.comp", struct "LobesParams", [
             sphere_count, depth, conservative, threshold, weight, extent, light_mode, energy_scale, split, sharpen,
-            take_whole, coarsen, light_weights, env_lobe_count, budget, env_black, pad2
+            take_whole, coarsen, light_weights, env_lobe_count, budget, env_black, light_alpha
         ]),
         // read only by the env=lobes variant (LOBES_ENV_K > 0)
         engine::gpu::layout_check::HostLayout {

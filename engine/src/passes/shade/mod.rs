@@ -186,6 +186,8 @@ pub struct ShadeInputs<'a> {
     blockers: Option<&'a BlockerResources>,
     thin: Option<&'a ThinResources>,
     geometry: Option<&'a Geometry>,
+    /// The scene has thin shells (a cloth, thin meshes), whether or not the technique reads them.
+    thin_shells: bool,
 }
 
 impl<'a> ShadeInputs<'a> {
@@ -212,7 +214,14 @@ impl<'a> ShadeInputs<'a> {
             blockers: reads.blockers.then_some(&scene.blockers),
             thin: reads.thin.then_some(&scene.thin),
             geometry: reads.geometry.then_some(&scene.geometry),
+            thin_shells: scene.thin.triangle_count > 0,
         })
+    }
+
+    /// Whether the scene has thin shells (a cloth, thin meshes): a technique that sees only their stand-in
+    /// spheres may treat those differently (`lobes:light_rule=auto`).
+    pub fn has_thin_shells(&self) -> bool {
+        self.thin_shells
     }
 
     fn unnamed(&self, what: &str) -> GpuError {

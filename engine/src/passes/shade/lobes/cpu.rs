@@ -422,7 +422,9 @@ impl Twin {
         let mut cells = o.take_whole as f32 as f64 * 2.0 * tan_half / (1u32 << depth.min(super::MAX_DEPTH)) as f64;
         let mut i = 0;
         loop {
-            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres, kind != MaskKind::Light);
+            // The lights' masks take α with `light_rule=alpha` (the twin has no scene: `auto` is plain here).
+            let alpha = kind != MaskKind::Light || o.light_rule == super::LightRule::Alpha;
+            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres, alpha);
             if !overflow || cells.is_nan() || cells <= 0.0 || i >= o.coarsen {
                 return (blockers, overflow);
             }

@@ -168,6 +168,13 @@ pub const OPTIONS: &[OptionSpec] = &[
         default: Some("all"),
         help: "cost split (paper Table 1; a timing variant, its image is not the technique's): every receiver stops after lobes (reflectance and light lobes, R × L, U), gather (+ the masks' blocker cuts), mask (+ the quad-trees), leaves (+ the shadow leaves' lobes) or all (+ the visibility products and integrals)",
     },
+    OptionSpec {
+        key: "light_rule",
+        aliases: &[],
+        kind: Kind::Choice(&["auto", "plain", "alpha"]),
+        default: Some("auto"),
+        help: "receiver rule of the lights' masks for a sphere straddling the tangent plane: plain (SHEXP §6.2, as the sphere reference), alpha (with its radius scale α, as the environment's mask) or auto (alpha in a scene with thin shells, whose stand-in spheres straddle every receiver on the sheet; plain otherwise)",
+    },
     super::env_lights_option("on"),
 ];
 
@@ -235,6 +242,8 @@ pub struct LobesOptions {
     pub refine: usize,
     /// `phase`: the last phase each receiver runs, 1..=5 ([`PHASES`]; 5 = all, the image).
     pub phase: u32,
+    /// The receiver rule of the lights' masks for spheres straddling the tangent plane.
+    pub light_rule: LightRule,
     /// Factor of the light masks' leaf weights by the leaf's depth (index 0..=6; `weights=fitted`: the
     /// fitted table `assets/tables/lobes_weights.json`, else all 1).
     pub light_weights: [f64; WEIGHT_DEPTHS],
@@ -262,6 +271,7 @@ impl Default for LobesOptions {
             refine: 6,
             phase: PHASES.len() as u32,
             light_weights: [1.0; WEIGHT_DEPTHS],
+            light_rule: LightRule::Auto,
         }
     }
 }
@@ -294,7 +304,36 @@ impl LobesOptions {
             refine: o.int("refine") as usize,
             phase: PHASES.iter().position(|&p| p == o.choice("phase")).map_or(PHASES.len(), |i| i + 1) as u32,
             light_weights,
+            light_rule: match o.choice("light_rule") {
+                "plain" => LightRule::Plain,
+                "alpha" => LightRule::Alpha,
+                _ => LightRule::Auto,
+            },
         })
+    }
+}
+
+/// The receiver rule of the lights' masks (option `light_rule`) for a blocker sphere straddling the receiver's
+/// tangent plane: SHEXP §6.2's plain rule (the sphere reference's), or the rule with its radius scale α (the
+/// environment mask's, and `shexp`'s). A sheet's stand-in spheres straddle the tangent plane of every receiver
+/// on the sheet: with the plain rule each becomes a blocker over the horizon, and light near the horizon draws
+/// the stand-ins' grid on the sheet.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightRule {
+    /// α in a scene with thin shells (the cloth), plain otherwise: resolved by [`LightRule::resolve`] at prepare.
+    Auto,
+    Plain,
+    Alpha,
+}
+
+impl LightRule {
+    /// `Auto` resolved for a scene with or without thin shells.
+    pub fn resolve(self, thin_shells: bool) -> Self {
+        match self {
+            LightRule::Auto if thin_shells => LightRule::Alpha,
+            LightRule::Auto => LightRule::Plain,
+            r => r,
+        }
     }
 }
 
@@ -325,7 +364,8 @@ pub struct GpuLobesParams {
     pub budget: u32,
     /// 1: the environment is black everywhere (the shader skips its term and mask).
     pub env_black: u32,
-    pub pad2: u32,
+    /// 1: the lights' masks take the receiver rules with α ([`LightRule`]).
+    pub light_alpha: u32,
 }
 
 /// `EnvLobe` in shaders-glsl/shade/lobes/shade.glsl (std430): one environment cosine lobe
@@ -384,7 +424,7 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         env_lobe_count: o.env_lobes.min(MAX_ENV_LOBES) as u32,
         budget: o.budget,
         env_black: 0,
-        pad2: 0,
+        light_alpha: u32::from(o.light_rule == LightRule::Alpha),
     }
 }
 
@@ -574,7 +614,8 @@ impl Technique for Lobes {
                 gpu_lobes = f.lobes.iter().map(GpuEnvLobe::from_fit).collect();
             }
         }
-        let mut p = params(&self.options, inputs.blockers()?.sphere_count);
+        let rule = self.options.light_rule.resolve(inputs.has_thin_shells());
+        let mut p = params(&LobesOptions { light_rule: rule, ..self.options.clone() }, inputs.blockers()?.sphere_count);
         p.env_lobe_count = if self.options.env_lobes > 0 { gpu_lobes.len().min(MAX_ENV_LOBES) as u32 } else { 0 };
         p.env_black = u32::from(inputs.environment.cpu.texels.iter().all(|t| t.iter().all(|&c| c == 0.0)));
         let params = match gpu.upload_buffer("lobes-params", BufferDesc::gpu_only(0), std::slice::from_ref(&p)) {
