@@ -379,7 +379,8 @@ fn main() {
     if let Some(path) = markdown {
         let text = format!(
             "# Process-level fuzzing: counts\n\n\
-             Written by `tools/process-fuzz.sh` (`process-fuzz --runs {} --seed {} --timeout {} --memory-mib {}`):\n\
+             Written by `tools/process-fuzz.sh` (`process-fuzz --runs {} --seed {} --timeout {} --memory-mib {}`) at \
+             commit `{}`:\n\
              seeded mutations of every loader's files, each run through the release `demo` binary as its own \
              process, capped at {} MiB of address space and killed after {} s. Columns: runs that loaded (reached \
              the GPU set-up, which has no driver here), runs refused with one `error:` line, and the findings: \
@@ -391,6 +392,7 @@ fn main() {
             s.seed,
             s.timeout.as_secs(),
             s.memory_kib >> 10,
+            demos::bench::COMMIT,
             s.memory_kib >> 10,
             s.timeout.as_secs(),
             rows.join("\n")
