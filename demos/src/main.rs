@@ -31,9 +31,9 @@ const MAX_PROGRESS_S: f64 = 86400.0;
 #[derive(Parser, Debug)]
 #[command(name = "demo", about = "Soft-shadow renderer: render a scene headless or in a window")]
 struct Args {
-    /// Scene: a registered name (the registry in demos/src/scenes), or a file: .gltf, .glb or .obj (one model on a
+    /// Scene: a registered name (the registry in demos/scenes), or a file: .gltf, .glb or .obj (one model on a
     /// ground plane, framed, spheres fitted and cached) or .toml (a scene description; docs/scene-files.md).
-    #[arg(long, default_value = "bunny", value_parser = demos::scenes::value_parser())]
+    #[arg(long, default_value = "bunny", value_parser = scenes::value_parser())]
     scene: String,
     /// File scenes: blocker spheres fitted per mesh (0: none; a scene file's `spheres` key wins) [default: 32].
     /// Fits are cached by mesh content in $SOFTSHADOWS_SPHERE_CACHE (default ~/.cache/softshadows/spheres).
@@ -111,14 +111,14 @@ struct Args {
     /// <out>/capture/<name>.csv, .json and .svg (frame-time plot); prints median, p95 and max per pass.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), conflicts_with_all = ["frames", "spp"])]
     capture: Option<u32>,
-    #[arg(long, help = demos::scenes::animate_help())]
+    #[arg(long, help = scenes::animate_help())]
     animate: bool,
     /// Specular BRDF of the scene's glossy materials (k_s > 0; material 0 if none is glossy), `MODEL[:key=value,...]`
     /// (`--help` lists the models and their keys).
     #[arg(long, value_name = "SPEC")]
     brdf: Option<String>,
     /// Export the frame as a Mitsuba 3 scene into DIR (scene.xml, meshes/*.ply, envmap.exr, the BRDF plugin
-    /// ours_bsdf.py and the runner render.py; see demos/src/export.rs) and write our render of the same frame
+    /// ours_bsdf.py and the runner render.py; see demos/lab/src/export.rs) and write our render of the same frame
     /// there as engine.exr / engine.png. `python3 DIR/render.py --spp N` renders it and compares.
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
@@ -126,10 +126,10 @@ struct Args {
     /// loads from Python only), `builtin` Mitsuba's own diffuse + roughconductor approximation of Blinn-Phong
     /// (loads in the `mitsuba` command line; refuses the other models).
     #[arg(long, value_name = "KIND", default_value = "plugin", requires = "export",
-          value_parser = demos::export::ExportBsdf::parse)]
-    export_bsdf: demos::export::ExportBsdf,
+          value_parser = lab::export::ExportBsdf::parse)]
+    export_bsdf: lab::export::ExportBsdf,
     #[command(flatten)]
-    env_lights: demos::env_lights::EnvLightArgs,
+    env_lights: scenes::env_lights::EnvLightArgs,
     /// Split the scene's environment into lights and a residual (as `env_lights=on` does), print the lights and
     /// write <out>/<name>-env-lights.png: the map over the residual, each light's cap outlined. No GPU is used.
     #[arg(long, conflicts_with_all = ["window", "capture", "export", "spp", "frames", "memory"])]
@@ -177,8 +177,8 @@ fn parse_name(s: &str) -> Result<String, String> {
 }
 
 fn main() {
-    demos::init_logging();
-    demos::exit_on_error(run());
+    scenes::init_logging();
+    scenes::exit_on_error(run());
 }
 
 /// The arguments, with `--technique` and `--brdf` help generated from the technique registry and the
@@ -317,23 +317,23 @@ fn run() -> anyhow::Result<()> {
     let mut args = parse_args();
     // Bad specs, options that do not apply and unusable outputs fail before any GPU work.
     check_args(&args)?;
-    let opts = demos::scenes::user::UserOptions {
+    let opts = scenes::user::UserOptions {
         spheres: args.spheres.map(|n| n as usize),
         clip: args.clip.clone(),
         ..Default::default()
     };
-    let loaded = demos::scenes::load(&args.scene, args.env.as_deref(), &opts)?;
+    let loaded = scenes::load(&args.scene, args.env.as_deref(), &opts)?;
     let mut scene = loaded.scene;
     if args.env_rotation.rem_euclid(360.0) != 0.0 {
         scene.environment = scene.environment.rotated_y(args.env_rotation);
     }
     if let Some(spec) = &args.brdf {
-        demos::apply_brdf(&mut scene, spec)?;
+        scenes::apply_brdf(&mut scene, spec)?;
     }
     args.env_lights.apply(&mut scene);
     if args.env_lights_preview {
         let path = args.out.join(format!("{}-env-lights.png", args.name));
-        for line in demos::env_lights::write_preview(&scene, &path)? {
+        for line in scenes::env_lights::write_preview(&scene, &path)? {
             println!("{line}");
         }
         return Ok(());
@@ -343,7 +343,7 @@ fn run() -> anyhow::Result<()> {
         eprintln!(
             "warning: scene '{}' has no animation ({} do, and files with glTF clips); rendering it static",
             args.scene,
-            demos::scenes::animated_names()
+            scenes::animated_names()
         );
     }
     if args.env_spin.is_some() && (args.spp.is_some() || args.capture.is_some()) {
@@ -394,7 +394,7 @@ fn render_on(
     args: &mut Args,
     scene: &engine::scene::Scene,
     label: &str,
-    animation: Option<demos::Animation>,
+    animation: Option<scenes::Animation>,
     event_loop: Option<winit::event_loop::EventLoop<()>>,
 ) -> anyhow::Result<()> {
     let (default_w, default_h) = default_size(gpu);
@@ -434,11 +434,11 @@ fn drive(
     renderer: &mut Renderer,
     args: &mut Args,
     scene: &engine::scene::Scene,
-    animation: Option<demos::Animation>,
+    animation: Option<scenes::Animation>,
     event_loop: Option<winit::event_loop::EventLoop<()>>,
 ) -> anyhow::Result<()> {
     let schedule = args.spp.map(spp_schedule);
-    if let (Some(s), Some(r)) = (&schedule, engine::converge::reference_mut(renderer)) {
+    if let (Some(s), Some(r)) = (&schedule, lab::converge::reference_mut(renderer)) {
         r.set_options(engine::passes::shade::reference::ReferenceOptions { samples_per_frame: s[0], ..r.options() })?;
     }
     if animation.is_some() && args.technique.starts_with("reference") {
@@ -449,8 +449,8 @@ fn drive(
     }
     if let Some(dir) = &args.export {
         let (width, height) = (args.width.unwrap_or(0), args.height.unwrap_or(0));
-        let opts = demos::export::ExportOptions { width, height, spp: 256, camera: None, bsdf: args.export_bsdf };
-        let e = demos::export::export_mitsuba(scene, dir, &opts)?;
+        let opts = lab::export::ExportOptions { width, height, spp: 256, camera: None, bsdf: args.export_bsdf };
+        let e = lab::export::export_mitsuba(scene, dir, &opts)?;
         println!("wrote Mitsuba 3 scene {} ({} meshes, {})", e.xml.display(), e.meshes.len(), e.envmap.display());
     }
     (args.out, args.name) = output_target(args);
@@ -462,27 +462,21 @@ fn drive(
             demos::viewer::ViewerOptions {
                 exit_after: args.exit_after.unwrap_or(0),
                 animation,
-                brdf: demos::BrdfCycle::new(scene),
+                brdf: scenes::BrdfCycle::new(scene),
                 env_spin: args.env_spin,
             },
         ),
         None => match args.capture {
-            Some(n) => demos::capture::run(
-                gpu,
-                renderer,
-                n,
-                &args.out,
-                &args.name,
-                &capture_info(gpu, args),
-                animation.as_ref(),
-            ),
+            Some(n) => {
+                lab::capture::run(gpu, renderer, n, &args.out, &args.name, &capture_info(gpu, args), animation.as_ref())
+            }
             None => render_frames(gpu, renderer, args, animation.as_ref(), schedule.as_deref()),
         },
     }
 }
 
-fn capture_info(gpu: &Gpu, args: &Args) -> demos::capture::CaptureInfo {
-    demos::capture::CaptureInfo {
+fn capture_info(gpu: &Gpu, args: &Args) -> lab::capture::CaptureInfo {
+    lab::capture::CaptureInfo {
         device: gpu.info.name.clone(),
         scene: args.scene.clone(),
         technique: args.technique.clone(),
@@ -506,7 +500,7 @@ fn render_frames(
     gpu: &Gpu,
     renderer: &mut Renderer,
     args: &Args,
-    animation: Option<&demos::Animation>,
+    animation: Option<&scenes::Animation>,
     schedule: Option<&[u32]>,
 ) -> anyhow::Result<()> {
     let frames = schedule.map_or(args.frames.unwrap_or(5), |s| s.len() as u32);
@@ -521,9 +515,9 @@ fn render_frames(
             a.apply(renderer, f as f32 / 30.0)?;
         }
         if let Some(spin) = args.env_spin {
-            demos::spin_environment(gpu, renderer, spin, f as f32 / 30.0)?;
+            scenes::spin_environment(gpu, renderer, spin, f as f32 / 30.0)?;
         }
-        if let (Some(s), Some(r)) = (schedule, engine::converge::reference_mut(renderer)) {
+        if let (Some(s), Some(r)) = (schedule, lab::converge::reference_mut(renderer)) {
             r.set_samples_per_frame(s[f as usize])?;
         }
         if f == 0 || args.env_spin.is_some() {
@@ -542,7 +536,7 @@ fn render_frames(
             }
         }
         let per_vertex = renderer.settings.per_vertex;
-        let samples = engine::converge::reference_mut(renderer).map(|r| r.samples(per_vertex));
+        let samples = lab::converge::reference_mut(renderer).map(|r| r.samples(per_vertex));
         progress.frame_done(f + 1, samples.filter(|_| schedule.is_some()).map(|n| (n, total_spp)));
     }
     let after_last = gpu.memory_stats();
@@ -588,7 +582,7 @@ fn render_frames(
         );
     }
     let per_vertex = renderer.settings.per_vertex;
-    if let Some(r) = engine::converge::reference_mut(renderer) {
+    if let Some(r) = lab::converge::reference_mut(renderer) {
         let stats = r.stats(gpu, per_vertex)?;
         println!(
             "reference: {} samples per item, relative standard error {:.3e}",

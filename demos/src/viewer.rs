@@ -3,7 +3,7 @@
 //!
 //! Controls: left mouse drag orbits, wheel zooms, `T`/`Tab` cycles techniques, `V` toggles
 //! per-vertex/per-pixel shading, `B` steps the glossy materials' BRDF (the scene's own, diffuse, Blinn-Phong
-//! s = 1000, anisotropic Ashikhmin-Shirley, anisotropic Lafortune, three Lafortune lobes, Cook-Torrance GGX: [`crate::BRDF_PRESETS`]), `P`/space pause and
+//! s = 1000, anisotropic Ashikhmin-Shirley, anisotropic Lafortune, three Lafortune lobes, Cook-Torrance GGX: [`scenes::BRDF_PRESETS`]), `P`/space pause and
 //! `.`/`,` step the animation, `+`/`-` change exposure, `R` resets the camera, `Esc`/`Q` quits.
 //! The scene renders at the requested resolution and is scaled to the window.
 
@@ -29,10 +29,10 @@ pub struct ViewerOptions {
     /// presented frame is announced on stdout as `presented frame N` (for tests and scripts).
     pub exit_after: u64,
     /// Motion to apply every frame from the viewer's clock (`--animate`).
-    pub animation: Option<crate::Animation>,
-    /// The `B` key's BRDF cycle over the scene's glossy materials ([`crate::BrdfCycle::new`] of the scene
+    pub animation: Option<scenes::Animation>,
+    /// The `B` key's BRDF cycle over the scene's glossy materials ([`scenes::BrdfCycle::new`] of the scene
     /// the renderer was built from).
-    pub brdf: crate::BrdfCycle,
+    pub brdf: scenes::BrdfCycle,
     /// `--env-spin`: degrees per second of the viewer's clock the environment turns (rebuilt every frame).
     pub env_spin: Option<f32>,
 }
@@ -184,7 +184,7 @@ impl App<'_> {
             a.apply(self.renderer, self.clock.time(Instant::now()))?;
         }
         if let Some(spin) = self.options.env_spin {
-            crate::spin_environment(self.gpu, self.renderer, spin, self.clock.time(Instant::now()))?;
+            scenes::spin_environment(self.gpu, self.renderer, spin, self.clock.time(Instant::now()))?;
         }
         let timings = self.renderer.render_presenting(self.gpu, &image)?;
         window.pre_present_notify();

@@ -11,7 +11,7 @@
 //!   error alone (nothing leaked, no validation complaint).
 //! - 8: `--help` lists every registered technique (the scenes: demos/tests/scenes.rs).
 
-use demos::scenes::SCENES;
+use scenes::SCENES;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -191,7 +191,7 @@ fn env_is_loaded_or_refused_by_every_scene() {
     let texels: Vec<f32> = (0..w * h).flat_map(|i| [0.25, 0.5, 0.125 + i as f32 / 64.0, 1.0]).collect();
     engine::output::write_exr(&path, w, h, &texels).expect("writing the test environment");
     for s in SCENES {
-        match demos::scenes::build(s.name, Some(&path)) {
+        match scenes::build(s.name, Some(&path)) {
             Ok(scene) => {
                 let env = &scene.environment;
                 assert_eq!((env.width, env.height), (w as usize, h as usize), "{}: --env not loaded", s.name);

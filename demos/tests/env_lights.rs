@@ -2,8 +2,8 @@
 //! `--env-lights*` options and `demo --env-lights-preview` (no GPU). The decomposition itself is tested in
 //! engine-math (env_lights) and with the renderer in tests/tests/env_lights.rs.
 
-use demos::scenes::user::parse_scene_file;
 use engine::math::env_lights::EnvLightParams;
+use scenes::user::parse_scene_file;
 use std::process::Command;
 
 fn params(environment: &str) -> Result<EnvLightParams, String> {

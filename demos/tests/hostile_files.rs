@@ -95,7 +95,7 @@ fn scene_file(dir: &Path, name: &str, extra: &str, more: &str) -> PathBuf {
 fn contained_parser_panics_print_only_the_error() {
     // The gltf crate panics on this accessor (tools/fuzz/corpus); the loader contains it. It printed
     // `thread 'main' panicked at …` before our error line.
-    let input = demos::assets_dir().join("../tools/fuzz/corpus/gltf/accessor-index-out-of-range.gltf");
+    let input = scenes::assets_dir().join("../tools/fuzz/corpus/gltf/accessor-index-out-of-range.gltf");
     let stderr = assert_error(&input, &["accessor-index-out-of-range.gltf", "not a valid glTF file"]);
     assert_eq!(stderr.lines().count(), 1, "one line, nothing before it:\n{stderr}");
 }
@@ -246,8 +246,8 @@ fn a_model_with_fewer_sample_points_than_spheres_is_fitted_and_named() {
     // `…/cache/…-n32.spheres.json: cannot fit 32 spheres to 18 sample points`.
     let dir = temp("count");
     let path = dir.join("SimpleSkin.gltf");
-    let (b, doc) = demos::gltf_writer::simple_skin();
-    b.write(doc, &path, demos::gltf_writer::Container::Embedded).expect("writing the strip");
+    let (b, doc) = scenes::gltf_writer::simple_skin();
+    b.write(doc, &path, scenes::gltf_writer::Container::Embedded).expect("writing the strip");
     let (code, stderr) = demo_scene(&path);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(!stderr.contains("panicked at") && !stderr.contains("cannot fit"), "{stderr}");

@@ -1,9 +1,9 @@
-//! The scene registry (demos/src/scenes): every registered scene builds and passes the registry's checks, its
+//! The scene registry (demos/scenes): every registered scene builds and passes the registry's checks, its
 //! motion poses it at a spread of times (CPU side; tests/tests/scenes.rs renders each one), and the binaries take
 //! their scene list from it: `--help` lists every name with its summary, an unknown `--scene` is an error naming
 //! the registered ones.
 
-use demos::scenes::{self, SCENES};
+use scenes::{self, SCENES};
 use std::process::Command;
 
 #[test]
@@ -22,10 +22,10 @@ fn every_registered_scene_builds_and_poses() {
 fn motions_start_at_the_rest_pose() {
     // The turntable starts at the scene as built; the arm starts straight (the static scene is bent 60°).
     let bunny = scenes::build("bunny", None).unwrap();
-    let a = demos::Animation::for_entry(scenes::find("bunny").unwrap(), &bunny).expect("bunny moves");
+    let a = scenes::Animation::for_entry(scenes::find("bunny").unwrap(), &bunny).expect("bunny moves");
     assert_eq!(a.pose(0.0).transforms, vec![(0, bunny.instances[0].transform)]);
     let arm = scenes::build("arm", None).unwrap();
-    let a = demos::Animation::for_entry(scenes::find("arm").unwrap(), &arm).expect("arm moves");
+    let a = scenes::Animation::for_entry(scenes::find("arm").unwrap(), &arm).expect("arm moves");
     assert_eq!(a.pose(0.0).bones, Some(scenes::arm::bones(0.0)));
     assert!(scenes::find("furnace").unwrap().motion.is_none());
 }
@@ -102,24 +102,6 @@ fn the_registry_check_catches_bad_entries() {
     });
     let err = scenes::check(&scenes::furnace::SCENE, &bad_light).unwrap_err().to_string();
     assert!(err.contains("bad light"), "{err}");
-}
-
-#[test]
-fn the_report_sweep_refuses_unregistered_scenes() {
-    let path = std::env::temp_dir().join(format!("sweep-scenes-{}.json", std::process::id()));
-    let sweep = |scene: &str| {
-        format!(
-            r#"{{"s": {{"width": 8, "height": 6, "frames": 1, "fraction": 0.5, "max_spp": 4, "samples_per_frame": 4,
-               "scenes": [{{"scene": "bunny"}}, {{"scene": "{scene}", "label": "mine"}}], "techniques": ["none"],
-               "shading": ["pixel"]}}}}"#
-        )
-    };
-    std::fs::write(&path, sweep("teapot")).unwrap();
-    let err = format!("{:#}", demos::report::load_sweep(&path, "s").unwrap_err());
-    assert!(err.contains("teapot") && err.contains("mine") && SCENES.iter().all(|s| err.contains(s.name)), "{err}");
-    std::fs::write(&path, sweep("lamp")).unwrap();
-    demos::report::load_sweep(&path, "s").expect("registered scenes load");
-    let _ = std::fs::remove_file(&path);
 }
 
 /// `--scene FILE` errors come before the GPU, naming the file: a missing model, an extension that is neither a

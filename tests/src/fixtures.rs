@@ -1,11 +1,11 @@
 //! Analytic scenes of the tests: closed-form answers, not demo scenes (those are the registry in
-//! demos/src/scenes; a test that needs one builds it from there).
+//! demos/scenes; a test that needs one builds it from there).
 
-use demos::scenes::shapes::{ground_plane, uv_sphere};
 use engine::blockers::Sphere;
 use engine::math::envmap::LatLongMap;
 use engine::scene::{Camera, Instance, Material, Scene, SceneBlockers};
 use glam::{Mat4, Vec3};
+use scenes::shapes::{ground_plane, uv_sphere};
 
 /// A Lambertian plane (half-size 1.5 at y = 0, albedo `albedo`, material 0) under `env`, with a
 /// tessellated sphere of `radius` at `center` (material 1) that casts sphere shadows through a

@@ -1,5 +1,5 @@
 //! The artefact gate (issue 35): every registered technique (engine::passes::shade::TECHNIQUES) on every
-//! registered demo scene (demos::scenes::SCENES, at rest) and every test scene
+//! registered demo scene (scenes::SCENES, at rest) and every test scene
 //! (engine_tests::fixtures::gate_scenes, under the courtyard), at 40 × 30, per pixel, at its default options.
 //! A new scene or technique is covered by being registered. Each image must
 //!
@@ -19,12 +19,12 @@
 //! Every failure of every pair is collected and printed (scene, technique, check, pixels as (x, y) with the
 //! technique's and the reference's values) before the test fails, so one run shows all that remains.
 
-use engine::converge;
 use engine::gpu::Gpu;
 use engine::passes::shade::reference::{ReferenceOptions, ReferenceStats, Visibility};
 use engine::passes::shade::TECHNIQUES;
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
+use lab::converge;
 
 const W: u32 = 40;
 const H: u32 = 30;
@@ -144,13 +144,13 @@ fn every_technique_on_every_scene_is_free_of_artefacts() {
     let t0 = std::time::Instant::now();
     let mut failures = Vec::new();
     let mut scenes = 0;
-    for entry in demos::scenes::SCENES {
-        let scene = demos::scenes::build(entry.name, None).unwrap_or_else(|e| panic!("{}: {e:#}", entry.name));
+    for entry in scenes::SCENES {
+        let scene = scenes::build(entry.name, None).unwrap_or_else(|e| panic!("{}: {e:#}", entry.name));
         let s = gate_scene(&gpu, entry.name, &scene, &mut failures);
         eprintln!("{}: {s:.1} s", entry.name);
         scenes += 1;
     }
-    let env = engine::scene::load_environment(&demos::assets_dir().join("envmaps/courtyard.exr")).expect("courtyard");
+    let env = engine::scene::load_environment(&scenes::assets_dir().join("envmaps/courtyard.exr")).expect("courtyard");
     for (name, scene) in engine_tests::fixtures::gate_scenes(&env) {
         let s = gate_scene(&gpu, name, &scene, &mut failures);
         eprintln!("{name}: {s:.1} s");

@@ -87,7 +87,7 @@ fn shipped_environments_need_no_repair() {
     // The repair is for user files: the shipped maps are clean (courtyard.exr had 12 slightly negative channels in
     // 9 texels, x 726–730, y 292–295, set to 0 in the asset as the loader did, so renders are unchanged).
     for name in ["courtyard.exr", "sunset.exr"] {
-        let p = demos::assets_dir().join("envmaps").join(name);
+        let p = scenes::assets_dir().join("envmaps").join(name);
         let (m, repaired) = load_environment_with_repairs(&p).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(repaired, 0, "{name}: {repaired} texel channels repaired on load");
         assert_eq!((m.width, m.height), (1024, 512), "{name}");

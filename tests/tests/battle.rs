@@ -4,9 +4,9 @@
 //! posed through the bone matrices, cast their shadows where the characters stand. (CPU side:
 //! demos/tests/battle.rs.)
 
-use demos::scenes::battle;
 use engine::renderer::RenderSettings;
 use engine_tests::{assert_finite, gpu, render_with_gbuffer, rgb, Receiver};
+use scenes::battle;
 
 const W: u32 = 64;
 const H: u32 = 48;
@@ -52,9 +52,9 @@ fn ground_ratios(scene: &engine::scene::Scene, lit: &[f32], none: &[f32], receiv
 fn battle_shadows_gather_at_the_characters_feet() {
     let gpu = gpu();
     let clock = std::time::Instant::now();
-    let mut scene = demos::scenes::build("battle", None).unwrap();
-    let entry = demos::scenes::find("battle").unwrap();
-    let pose = demos::Animation::for_entry(entry, &scene).expect("battle moves").pose(1.0);
+    let mut scene = scenes::build("battle", None).unwrap();
+    let entry = scenes::find("battle").unwrap();
+    let pose = scenes::Animation::for_entry(entry, &scene).expect("battle moves").pose(1.0);
     for (i, m) in pose.transforms {
         scene.instances[i].transform = m;
     }

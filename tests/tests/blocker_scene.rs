@@ -47,12 +47,12 @@ fn worst_uncovered(points: &[Vec3], spheres: &[[f32; 4]]) -> f32 {
 #[test]
 fn skinned_spheres_follow_a_bent_joint() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::arm::scene(0.0);
+    let scene = scenes::arm::scene(0.0);
     let arm_vertices = scene.meshes[0].positions.len();
     let model = scene.instances[0].transform;
     let mut r = Renderer::new(&gpu, &scene, small()).unwrap();
     for angle in [0.0f32, 30.0, 60.0, 90.0] {
-        let bones = demos::scenes::arm::bones(angle.to_radians());
+        let bones = scenes::arm::bones(angle.to_radians());
         r.set_bones(&bones).unwrap();
         r.render(&gpu).unwrap();
         let (world, spheres, nodes) = read_state(&gpu, &r);
@@ -63,7 +63,7 @@ fn skinned_spheres_follow_a_bent_joint() {
         let tip = Vec3::from_slice(&world[arm_vertices - 1].position[..3]);
         assert!(tip.distance(tip_want) < 1e-4, "{angle}°: tip {tip} want {tip_want}");
         // Spheres at both ends are bound to one bone each and move exactly with it.
-        let rest = demos::scenes::arm::spheres(12);
+        let rest = scenes::arm::spheres(12);
         for (k, bone) in [(0usize, 0usize), (11, 1)] {
             let want = model.transform_point3(bones[bone].transform_point3(rest[k].center.as_vec3()));
             let got = Vec3::new(spheres[k][0], spheres[k][1], spheres[k][2]);
@@ -84,7 +84,7 @@ fn skinned_spheres_follow_a_bent_joint() {
 #[test]
 fn rigid_bunny_spheres_move_and_steady_frames_allocate_nothing() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("bunny", None).unwrap();
+    let scene = scenes::build("bunny", None).unwrap();
     let rest = scene.blockers.spheres_of(0).unwrap().to_vec();
     assert_eq!(rest.len(), 64, "the bunny's default sphere set");
     let base = scene.instances[0].transform;
@@ -129,7 +129,7 @@ fn rigid_bunny_spheres_move_and_steady_frames_allocate_nothing() {
 #[test]
 fn scenes_without_blockers_run_no_blocker_pass() {
     let gpu = engine_tests::gpu();
-    let mut r = Renderer::new(&gpu, &demos::scenes::build("furnace", None).unwrap(), small()).unwrap();
+    let mut r = Renderer::new(&gpu, &scenes::build("furnace", None).unwrap(), small()).unwrap();
     assert_eq!(r.scene.blockers.sphere_count, 0);
     let timings = r.render(&gpu).unwrap();
     assert!(timings.iter().all(|t| !t.name.starts_with("blocker")), "{timings:?}");

@@ -5,7 +5,6 @@
 //! (engine::math::brdf, isg::cpu::specular), and hard cases (grazing views, extreme exponents).
 
 use engine::blockers::Sphere;
-use engine::converge;
 use engine::gpu::Gpu;
 use engine::math::brdf::{self, HalfVectorFit};
 use engine::math::envmap::LatLongMap;
@@ -16,6 +15,7 @@ use engine::renderer::{RenderSettings, Renderer};
 use engine::resources::layout::GpuMaterial;
 use engine::scene::{Camera, Instance, Material, Scene};
 use glam::{DVec3, Mat4, Vec3};
+use lab::converge;
 
 const W: u32 = 96;
 const H: u32 = 48;
@@ -42,7 +42,7 @@ fn all_brdfs() -> Vec<&'static str> {
 /// Up to four spheres side by side, sphere j with material j = the BRDF `brdfs[j]` (diffuse ρ_d =
 /// `kd`), under `env` (the sphere scene's smooth sky when None); no blockers.
 fn four_spheres(brdfs: &[&str], env: Option<LatLongMap>, kd: f32) -> Scene {
-    let sky = demos::scenes::sphere::scene(2);
+    let sky = scenes::sphere::scene(2);
     let mut materials = Vec::new();
     for spec in brdfs {
         let mut m = Material::diffuse(Vec3::splat(kd));
@@ -50,7 +50,7 @@ fn four_spheres(brdfs: &[&str], env: Option<LatLongMap>, kd: f32) -> Scene {
         materials.push(m);
     }
     Scene {
-        meshes: vec![demos::scenes::shapes::uv_sphere(24)],
+        meshes: vec![scenes::shapes::uv_sphere(24)],
         materials,
         instances: (0..brdfs.len())
             .map(|j| Instance {
@@ -400,8 +400,7 @@ fn extreme_parameters_stay_finite() {
         ("lafortune:cx=-1,cy=-0.2,cz=1,e=100000,ks=1", "phong:e=0.001,ks=1"),
         ("phong:e=100000,ks=1", "lafortune:cx=1,cy=1,cz=1,e=0.001,ks=1"),
     ] {
-        let base =
-            engine_tests::fixtures::sphere_over_plane(demos::scenes::sphere::sky(), 0.5, Vec3::new(0.0, 0.5, 0.0), 0.5);
+        let base = engine_tests::fixtures::sphere_over_plane(scenes::sphere::sky(), 0.5, Vec3::new(0.0, 0.5, 0.0), 0.5);
         let scene = with_brdf(with_brdf(base, 0, plane, 0.2), 1, sphere, 0.2);
         let spec = format!("{plane} / {sphere}");
         for technique in ["none", "isg"] {

@@ -3,9 +3,9 @@
 //! renderer built at the rest pose) renders the same image as a renderer built at that pose: the blocker spheres
 //! follow the pieces. (CPU side: demos/tests/chess.rs.)
 
-use demos::scenes::chess::{self, SQUARE};
 use engine::renderer::{RenderSettings, Renderer};
 use engine_tests::{assert_finite, gpu, relative_rmse, render_with_gbuffer, rgb, Receiver};
+use scenes::chess::{self, SQUARE};
 
 const W: u32 = 48;
 const H: u32 = 36;
@@ -51,11 +51,11 @@ fn board_ratios(scene: &engine::scene::Scene, isg: &[f32], none: &[f32], receive
 fn sphere_shadows_darken_the_board_and_follow_the_moving_pieces() {
     let gpu = gpu();
     let clock = std::time::Instant::now();
-    let scene = demos::scenes::build("chess", None).unwrap();
+    let scene = scenes::build("chess", None).unwrap();
     let (none, receivers) = render_with_gbuffer(&gpu, &scene, settings("none"));
     assert_finite(&none, "none");
-    let entry = demos::scenes::find("chess").unwrap();
-    let anim = demos::Animation::for_entry(entry, &scene).expect("chess moves");
+    let entry = scenes::find("chess").unwrap();
+    let anim = scenes::Animation::for_entry(entry, &scene).expect("chess moves");
     // The final position: 12 pieces captured and carried beside the board, most others moved.
     let t = chess::PERIOD - 1.0;
     let mut posed = scene.clone();

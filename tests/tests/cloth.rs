@@ -7,7 +7,6 @@
 //! - its shadows: ISG (thin shells; the generated spheres collapsed to radius 0) and SHEXP (the generated
 //!   spheres) both darken the ground under the cloth against `none`.
 
-use demos::scenes::cloth::CLOTH_INSTANCE;
 use engine::blockers::Sphere;
 use engine::math::envmap::LatLongMap;
 use engine::renderer::{RenderSettings, Renderer};
@@ -16,6 +15,7 @@ use engine::scene::cloth::{grid_mesh, patch_sphere, Cloth, ClothParams, ClothSim
 use engine::scene::{Instance, Material};
 use engine_tests::{assert_finite, gpu, rgb};
 use glam::{DVec3, Mat4, Vec3};
+use scenes::cloth::CLOTH_INSTANCE;
 
 fn settings(technique: &str, w: u32, h: u32) -> RenderSettings {
     RenderSettings { width: w, height: h, technique: technique.into(), ..Default::default() }
@@ -93,7 +93,7 @@ fn gpu_substeps_match_the_f64_twin() {
 #[test]
 fn the_cloth_scene_is_deterministic_lands_outside_the_bunnies_and_resets() {
     let gpu = gpu();
-    let scene = demos::scenes::build("cloth", None).unwrap();
+    let scene = scenes::build("cloth", None).unwrap();
     let cloth = scene.blockers.cloth.clone().unwrap();
     let thickness = cloth.params.thickness as f64;
     // Run 1: 45 frames of 1/30 s (8 substeps each), keeping the state at frame 15.
@@ -161,7 +161,7 @@ fn the_cloth_scene_is_deterministic_lands_outside_the_bunnies_and_resets() {
     assert!(deepest < thickness, "a vertex is {deepest} m inside a bunny sphere plus the thickness");
     eprintln!("lowest vertex y = {lowest:.4} m, deepest penetration {deepest:.2e} m");
     let mean_y = x.iter().map(|p| p.y).sum::<f64>() / x.len() as f64;
-    assert!(mean_y < 0.5 * demos::scenes::cloth::CLOTH_HEIGHT as f64, "the cloth has not fallen: mean y {mean_y}");
+    assert!(mean_y < 0.5 * scenes::cloth::CLOTH_HEIGHT as f64, "the cloth has not fallen: mean y {mean_y}");
     gpu.shutdown().expect("clean teardown");
 }
 
@@ -183,7 +183,7 @@ fn ground_luminance(hdr: &[f32], receivers: &[engine_tests::Receiver], reach: f6
 #[test]
 fn isg_and_shexp_see_the_cloth_shadow() {
     let gpu = gpu();
-    let scene = demos::scenes::build("cloth", None).unwrap();
+    let scene = scenes::build("cloth", None).unwrap();
     let cloth_spheres = scene.blockers.cloth.as_ref().unwrap().sphere_count() as usize;
     let (w, h) = (48, 36);
     let mut r = Renderer::new(&gpu, &scene, settings("none", w, h)).unwrap();
@@ -241,12 +241,12 @@ fn reference_at_time(
     let (w, h) = (48, 36);
     let mut r = Renderer::new(gpu, scene, settings("reference", w, h)).unwrap();
     r.set_time(t).unwrap();
-    let reference = engine::converge::reference_mut(&mut r).unwrap();
+    let reference = lab::converge::reference_mut(&mut r).unwrap();
     reference
         .set_options(ReferenceOptions { samples_per_frame: spp, seed: 1, visibility, ..Default::default() })
         .unwrap();
     r.render(gpu).unwrap();
-    let stats = engine::converge::reference_mut(&mut r).unwrap().stats(gpu, false).unwrap();
+    let stats = lab::converge::reference_mut(&mut r).unwrap().stats(gpu, false).unwrap();
     assert_eq!(stats.nonfinite_samples, 0);
     // The G-buffer stores material + 1 in position.w (shaders-glsl/gbuffer/gbuffer.frag).
     let position = gpu.read_image_rgba32f(&r.gbuffer.position).unwrap();
@@ -269,7 +269,7 @@ fn reference_at_time(
 fn the_triangle_reference_traces_the_simulated_cloth() {
     use engine::passes::shade::reference::Visibility;
     let gpu = gpu();
-    let scene = demos::scenes::build("cloth", None).unwrap();
+    let scene = scenes::build("cloth", None).unwrap();
     let material = scene.instances[CLOTH_INSTANCE].material;
     for t in [0.0, 0.6] {
         let (tri, covered, cloth) = reference_at_time(&gpu, &scene, t, Visibility::Triangles, 32, material);
@@ -309,7 +309,7 @@ fn a_reference_frame_compiles_the_frame_shaders() {
     use engine::passes::shade::reference::FRAME_SHADERS;
     let gpu = gpu();
     assert!(gpu.compiled_shaders().is_empty(), "a fresh device has compiled nothing");
-    let scene = demos::scenes::build("cloth", None).unwrap();
+    let scene = scenes::build("cloth", None).unwrap();
     let mut r = Renderer::new(&gpu, &scene, settings("reference", 8, 8)).unwrap();
     r.render(&gpu).unwrap();
     r.destroy(&gpu);

@@ -1,16 +1,16 @@
 //! The noise of the proxy difference (sphere-proxy reference − triangle reference) on the real renderer: the
-//! half-split estimate of one run (`engine::converge::combination_noise_sq`) against the noise measured directly
+//! half-split estimate of one run (`lab::converge::combination_noise_sq`) against the noise measured directly
 //! from two runs with independent seeds (E|D₁ − D₂|² = 2 Σ Var D), and against √(σ_s² + σ_t²), the references'
 //! own noises added as if independent, which the shared random numbers make far too large.
 
-use engine::converge::{self, combination_noise_sq, HalfMeans};
 use engine::passes::shade::reference::{ReferenceOptions, ReferenceStats, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
+use lab::converge::{self, combination_noise_sq, HalfMeans};
 
 #[test]
 fn proxy_difference_noise_matches_independent_runs() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("bunny", None).expect("bunny scene");
+    let scene = scenes::build("bunny", None).expect("bunny scene");
     let (w, h, spp) = (48, 36, 256);
     let run = |visibility, seed| -> (ReferenceStats, HalfMeans) {
         let settings = RenderSettings { width: w, height: h, technique: "reference".into(), ..Default::default() };

@@ -17,13 +17,13 @@ const W: u32 = 48;
 const H: u32 = 36;
 
 fn envmap(name: &str) -> LatLongMap {
-    engine::scene::load_environment(&demos::assets_dir().join("envmaps").join(name)).expect("shipped map")
+    engine::scene::load_environment(&scenes::assets_dir().join("envmaps").join(name)).expect("shipped map")
 }
 
 /// A Lambertian plane (and nothing else) under `env`, seen from above at an angle.
 fn plane(env: LatLongMap) -> Scene {
     Scene {
-        meshes: vec![demos::scenes::shapes::ground_plane(1.5, 8)],
+        meshes: vec![scenes::shapes::ground_plane(1.5, 8)],
         materials: vec![Material::diffuse(Vec3::splat(0.6))],
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: env,
@@ -36,7 +36,7 @@ fn plane(env: LatLongMap) -> Scene {
 }
 
 fn bunny() -> Scene {
-    demos::scenes::build("bunny", None).expect("bunny scene")
+    scenes::build("bunny", None).expect("bunny scene")
 }
 
 /// Render `scene` with `spec`; also the number of lights the split made (None: no split was made).

@@ -2,15 +2,15 @@
 //! `demo --env-rotation`; 32×24, validation on): for every registered technique but the reference, the image
 //! after the turn equals a renderer built with the turned map, differs from the unturned one, and turning back
 //! gives the first image again; the reference restarts its samples; a non-finite angle is an error that leaves
-//! the renderer as it was; `--env-spin` (`demos::spin_environment`) turns by the rate times the time.
+//! the renderer as it was; `--env-spin` (`scenes::spin_environment`) turns by the rate times the time.
 
-use engine::converge::reference_mut;
 use engine::math::envmap::LatLongMap;
 use engine::passes::shade::reference::ReferenceOptions;
 use engine::passes::shade::TECHNIQUES;
 use engine::renderer::{RenderSettings, Renderer};
 use engine_tests::{assert_finite, fixtures::sphere_over_plane, gpu, relative_rmse, render};
 use glam::Vec3;
+use lab::converge::reference_mut;
 
 const W: u32 = 32;
 const H: u32 = 24;
@@ -87,7 +87,7 @@ fn the_reference_restarts_and_bad_angles_are_refused() {
 fn spinning_turns_by_the_rate_times_the_time() {
     let gpu = gpu();
     let mut r = Renderer::new(&gpu, &scene(0.0), settings("none")).unwrap();
-    demos::spin_environment(&gpu, &mut r, 180.0, 0.5).unwrap();
+    scenes::spin_environment(&gpu, &mut r, 180.0, 0.5).unwrap();
     assert_eq!(r.environment_rotation(), 90.0);
     r.render(&gpu).unwrap();
     let turned = r.read_radiance(&gpu).unwrap();
@@ -95,7 +95,7 @@ fn spinning_turns_by_the_rate_times_the_time() {
     let e = relative_rmse(&turned, &fresh, |_| true);
     assert!(e < 1e-5, "spun to 90° vs built turned: {e}");
     // Negative rates and more than a turn: modulo 360.
-    demos::spin_environment(&gpu, &mut r, -900.0, 0.5).unwrap();
+    scenes::spin_environment(&gpu, &mut r, -900.0, 0.5).unwrap();
     assert_eq!(r.environment_rotation(), 270.0);
     r.destroy(&gpu);
 }

@@ -7,7 +7,7 @@ use engine::renderer::RenderSettings;
 fn lambertian_plane_under_constant_environment() {
     let gpu = engine_tests::gpu();
     let (albedo, radiance) = (0.5f32, 2.0f32);
-    let scene = demos::scenes::furnace::scene(albedo, radiance);
+    let scene = scenes::furnace::scene(albedo, radiance);
     for per_vertex in [false, true] {
         let settings =
             RenderSettings { width: 64, height: 48, per_vertex, technique: "none".into(), ..Default::default() };

@@ -19,7 +19,6 @@
 //! A smooth-shaded cube (the bunny's situation over a large area: a smooth normal over flat faces)
 //! is checked too: no pixel of it is 0 in any technique.
 
-use engine::converge;
 use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
 use engine::math::shading::shading_normals;
@@ -27,6 +26,7 @@ use engine::passes::shade::{TechniqueEntry, TECHNIQUES};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
 use glam::DVec3;
+use lab::converge;
 
 const W: u32 = 48;
 const H: u32 = 36;
@@ -137,7 +137,7 @@ fn grazing_shading_normals_every_technique() {
 #[test]
 fn smooth_cube_has_no_black_pixels_in_any_technique() {
     let gpu = engine_tests::gpu();
-    let scene = engine_tests::fixtures::smooth_cube(demos::scenes::sphere::sky(), 0.8);
+    let scene = engine_tests::fixtures::smooth_cube(scenes::sphere::sky(), 0.8);
     let eye = scene.camera.eye.as_dvec3();
     for entry in TECHNIQUES {
         let f = render(&gpu, &scene, entry);

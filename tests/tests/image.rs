@@ -63,7 +63,7 @@ fn check_all_against_references(images: &[(String, Vec<u8>)], w: u32, h: u32) {
 #[test]
 fn default_scene_matches_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("bunny", None).expect("default scene");
+    let scene = scenes::build("bunny", None).expect("default scene");
     let (w, h) = (128, 96);
     let settings = RenderSettings { width: w, height: h, technique: "none".into(), ..Default::default() };
     let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
@@ -77,7 +77,7 @@ fn default_scene_matches_reference() {
 #[test]
 fn isg_bunny_matches_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("bunny", None).expect("default scene");
+    let scene = scenes::build("bunny", None).expect("default scene");
     let (w, h) = (128, 96);
     let settings = RenderSettings { width: w, height: h, technique: "isg".into(), ..Default::default() };
     let (hdr, ldr) = engine_tests::render(&gpu, &scene, settings);
@@ -91,7 +91,7 @@ fn default_scene_shows_the_environment() {
     // The bunny's lit side is brighter than its shaded side, and the ground is tinted by the
     // environment (not grey): checked on the linear image.
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("bunny", None).expect("default scene");
+    let scene = scenes::build("bunny", None).expect("default scene");
     let (w, h) = (128u32, 96u32);
     let (hdr, _) = engine_tests::render(
         &gpu,
@@ -121,7 +121,7 @@ fn default_scene_shows_the_environment() {
 #[test]
 fn every_technique_on_the_lamp_scene_matches_its_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("lamp", None).expect("lamp scene");
+    let scene = scenes::build("lamp", None).expect("lamp scene");
     let (w, h) = (64, 48);
     let mut images = Vec::new();
     for entry in engine::passes::shade::TECHNIQUES {
@@ -145,7 +145,7 @@ fn demo_scenes_with_every_technique_match_their_references() {
     let (w, h) = (48, 36);
     let mut images = Vec::new();
     for (name, t) in [("chess", 1.5f32), ("battle", 0.8), ("cloth", 0.25)] {
-        let loaded = demos::scenes::load(name, None, &Default::default()).expect("scene");
+        let loaded = scenes::load(name, None, &Default::default()).expect("scene");
         for entry in engine::passes::shade::TECHNIQUES {
             let settings = RenderSettings { width: w, height: h, technique: entry.name.into(), ..Default::default() };
             let mut r = engine::renderer::Renderer::new(&gpu, &loaded.scene, settings).expect("renderer");

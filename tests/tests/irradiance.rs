@@ -18,7 +18,7 @@ fn irradiance_lookup_matches_the_f64_twin() {
         })
         .collect();
     texels[30 * w + 17] = [400.0, 350.0, 300.0];
-    let mut scene = demos::scenes::sphere::scene(48);
+    let mut scene = scenes::sphere::scene(48);
     scene.environment = LatLongMap { width: w, height: h, texels };
     // Seen from above, so that the pole (+Y) is in view.
     scene.camera.eye = glam::Vec3::new(0.3, 3.0, 1.2);

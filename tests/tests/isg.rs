@@ -25,7 +25,7 @@ fn settings(technique: &str) -> RenderSettings {
 #[test]
 fn no_blockers_equals_none() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::sphere::scene(48);
+    let scene = scenes::sphere::scene(48);
     let (none, _) = engine_tests::render(&gpu, &scene, settings("none"));
     let (isg, _) = engine_tests::render(&gpu, &scene, settings("isg"));
     let (isg_ratio, _) = engine_tests::render(&gpu, &scene, settings("isg:diffuse=ratio"));
@@ -89,7 +89,7 @@ fn one_sphere_blocker_constant_environment() {
 #[test]
 fn gpu_matches_the_f64_twin() {
     let gpu = engine_tests::gpu();
-    let sky = demos::scenes::sphere::sky();
+    let sky = scenes::sphere::sky();
     let (c, r) = (Vec3::new(0.2, 0.6, -0.1), 0.45f32);
     let scene = engine_tests::fixtures::sphere_over_plane(sky.clone(), 0.7, c, r);
     let lut = IsgLut::generate_default();
@@ -174,7 +174,7 @@ fn map_diffuse_matches_the_f64_twin() {
 #[test]
 fn hundreds_of_overlapping_spheres() {
     let gpu = engine_tests::gpu();
-    let sky = demos::scenes::sphere::sky();
+    let sky = scenes::sphere::sky();
     let mut scene = engine_tests::fixtures::sphere_over_plane(sky, 0.7, Vec3::new(0.0, 0.3, 0.0), 0.6);
     let mut rng = engine::math::rng::Pcg32::new(7, 3);
     let spheres: Vec<Sphere> = (0..300)

@@ -5,7 +5,6 @@
 //! sphere-proxy reference (which traces the thin triangles too).
 
 use engine::blockers::Sphere;
-use engine::converge::{converge, reference_mut};
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
 use engine::passes::shade::isg::thin::parallel_rectangle_form_factor;
@@ -15,6 +14,7 @@ use engine::renderer::{RenderSettings, Renderer};
 use engine::resources::thin::{GpuThinCluster, GpuThinTriangle};
 use engine::scene::Scene;
 use glam::{DVec3, Mat4, Vec3};
+use lab::converge::{converge, reference_mut};
 
 const W: u32 = 48;
 const H: u32 = 36;
@@ -134,7 +134,7 @@ fn sheet_and_sphere(env: LatLongMap, droop: bool) -> (Scene, Vec<Sphere>) {
         p.y = -0.15 * (1.0 - 4.0 * p.x * p.x) * (1.0 - 4.0 * p.z * p.z) + 0.1 * p.x;
     }
     scene.meshes[1].normals = engine::scene::compute_normals(&scene.meshes[1].positions, &scene.meshes[1].indices);
-    scene.meshes.push(demos::scenes::shapes::uv_sphere(16));
+    scene.meshes.push(scenes::shapes::uv_sphere(16));
     scene.materials.push(engine::scene::Material::diffuse(Vec3::splat(0.5)));
     scene.instances.push(engine::scene::Instance {
         mesh: 2,
@@ -147,7 +147,7 @@ fn sheet_and_sphere(env: LatLongMap, droop: bool) -> (Scene, Vec<Sphere>) {
 
 fn twin_case(droop: bool) {
     let gpu = engine_tests::gpu();
-    let sky = demos::scenes::sphere::sky();
+    let sky = scenes::sphere::sky();
     let (scene, spheres) = sheet_and_sphere(sky.clone(), droop);
     let thin = thin_triangles(&scene);
     let lut = IsgLut::generate_default();
@@ -241,7 +241,7 @@ fn map_diffuse_matches_the_f64_twin_with_thin_triangles() {
 #[test]
 fn lobed_specular_sees_thin_triangles() {
     let gpu = engine_tests::gpu();
-    let sky = demos::scenes::sphere::sky();
+    let sky = scenes::sphere::sky();
     for brdf in ["cook-torrance:roughness=0.3,ks=0.6,kd=0", "ashikhmin-shirley:nu=50,nv=10,ks=0.6,kd=0"] {
         let mut scene = engine_tests::fixtures::sheet_over_plane(sky.clone(), 0.7, 0.5, 0.7, 8);
         scene.materials[0].apply_brdf_spec(brdf).expect("brdf");
@@ -270,11 +270,11 @@ fn lobed_specular_sees_thin_triangles() {
 #[test]
 fn hard_cases_and_the_thin_shells_pass() {
     let gpu = engine_tests::gpu();
-    let sky = demos::scenes::sphere::sky();
+    let sky = scenes::sphere::sky();
     let mut scene = engine_tests::fixtures::sheet_over_plane(sky, 0.7, 0.4, 0.5, 6);
     // A vertical sheet cutting through the ground (straddling receivers' tangent plane) and edge-on to
     // the receivers in its plane, with degenerate triangles appended.
-    let mut wall = demos::scenes::shapes::ground_plane(0.5, 4);
+    let mut wall = scenes::shapes::ground_plane(0.5, 4);
     for p in &mut wall.positions {
         *p = Vec3::new(0.6, p.z + 0.2, p.x);
     }
@@ -347,7 +347,7 @@ fn hard_cases_and_the_thin_shells_pass() {
 #[test]
 fn sheet_scene_against_the_sphere_proxy_reference() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("sheet", None).expect("scene");
+    let scene = scenes::build("sheet", None).expect("scene");
     let mut bare = scene.clone();
     bare.instances.pop();
     bare.blockers.thin.clear();
@@ -366,7 +366,7 @@ fn sheet_scene_against_the_sphere_proxy_reference() {
     gpu.shutdown().expect("clean teardown");
     assert_eq!(stats.nonfinite_samples, 0);
     let img: Vec<[f32; 3]> = (0..(w * h) as usize).map(|i| [isg[4 * i], isg[4 * i + 1], isg[4 * i + 2]]).collect();
-    let rmse = 100.0 * engine::metrics::relative_rmse_items(&img, &stats.mean, &stats.covered);
+    let rmse = 100.0 * lab::metrics::relative_rmse_items(&img, &stats.mean, &stats.covered);
     // The sheet's shadow: the ground and the bunny under it are darker than without the sheet.
     let darker = (0..(w * h) as usize).filter(|&i| isg[4 * i + 1] < 0.9 * isg_bare[4 * i + 1]).count();
     eprintln!(

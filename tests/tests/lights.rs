@@ -7,7 +7,6 @@
 //!   by quadrature (f64) in `isg` and the sphere-proxy reference; `none` ignores it.
 
 use engine::blockers::Sphere;
-use engine::converge;
 use engine::math::envmap::LatLongMap;
 use engine::math::sphere_light::{cap_from_sphere, sphere_light_clamped_cosine};
 use engine::passes::shade::reference::{ReferenceOptions, Visibility};
@@ -15,6 +14,7 @@ use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::{Camera, Instance, Material, Scene, SceneBlockers, SphereLight};
 use engine_tests::{relative_rmse, Receiver};
 use glam::{DVec3, Mat4, Vec3};
+use lab::converge;
 use std::f64::consts::PI;
 
 const W: u32 = 48;
@@ -27,7 +27,7 @@ const BLOCKER: (Vec3, f32) = (Vec3::new(0.1, 0.45, -0.05), 0.22);
 /// sphere (tessellated, its sphere set the sphere itself).
 fn scene(blocker: bool) -> Scene {
     let mut s = Scene {
-        meshes: vec![demos::scenes::shapes::ground_plane(1.5, 8)],
+        meshes: vec![scenes::shapes::ground_plane(1.5, 8)],
         materials: vec![Material::diffuse(Vec3::splat(ALBEDO)), Material::diffuse(Vec3::splat(0.5))],
         instances: vec![Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 }],
         environment: LatLongMap::constant(16, 8, [0.0; 3]),
@@ -38,7 +38,7 @@ fn scene(blocker: bool) -> Scene {
         camera: Camera { eye: Vec3::new(0.0, 2.2, 2.4), target: Vec3::new(0.0, 0.0, -0.2), fov_y_degrees: 45.0 },
     };
     if blocker {
-        s.meshes.push(demos::scenes::shapes::uv_sphere(24));
+        s.meshes.push(scenes::shapes::uv_sphere(24));
         s.instances.push(Instance {
             mesh: 1,
             transform: Mat4::from_translation(BLOCKER.0) * Mat4::from_scale(Vec3::splat(BLOCKER.1)),

@@ -420,9 +420,9 @@ fn environment_planes_keep_the_light_of_downward_receivers() {
 fn the_cloth_casts_no_black_blotches() {
     use engine::passes::shade::reference::Visibility;
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("cloth", None).expect("scene");
+    let scene = scenes::build("cloth", None).expect("scene");
     let settings = RenderSettings { width: W, height: H, ..Default::default() };
-    let reference = demos::measure::reference_at(&gpu, &scene, &settings, Visibility::Spheres, 64, 16).unwrap();
+    let reference = lab::measure::reference_at(&gpu, &scene, &settings, Visibility::Spheres, 64, 16).unwrap();
     let (hdr, _) = engine_tests::render(&gpu, &scene, RenderSettings { technique: "lobes".into(), ..settings.clone() });
     gpu.shutdown().expect("clean teardown");
     assert_finite(&hdr, "lobes");
@@ -454,7 +454,7 @@ fn the_cloth_casts_no_black_blotches() {
 /// centres, every third row and column).
 fn flat_cloth() -> (TwinBvh, Vec<DVec3>) {
     use engine::scene::cloth::{patch_sphere, rest_positions};
-    let scene = demos::scenes::build("cloth", None).expect("scene");
+    let scene = scenes::build("cloth", None).expect("scene");
     let cloth = scene.blockers.cloth.clone().expect("the cloth");
     let (instance, _) = engine::scene::cloth::cloth_instance(&scene, &cloth).expect("its instance");
     let inst = &scene.instances[instance];
@@ -543,7 +543,7 @@ fn a_low_light_over_the_flat_cloth_is_not_hidden_by_its_stand_ins() {
 fn the_automatic_light_rule_follows_the_scene() {
     let gpu = engine_tests::gpu();
     for (name, same, other) in [("cloth", "alpha", "plain"), ("lamp-one", "plain", "alpha")] {
-        let scene = demos::scenes::build(name, None).expect("scene");
+        let scene = scenes::build(name, None).expect("scene");
         let image = |spec: &str| {
             let settings = RenderSettings { width: 32, height: 24, technique: spec.into(), ..Default::default() };
             engine_tests::render(&gpu, &scene, settings).0
@@ -690,7 +690,7 @@ fn blocker_overflow_is_reported() {
     let gpu = engine_tests::gpu();
     let mut lines = Vec::new();
     for (name, spec) in [("chess", "lobes:take_whole=0,env_lights=off"), ("lamp-one", "lobes")] {
-        let scene = demos::scenes::build(name, None).expect("scene");
+        let scene = scenes::build(name, None).expect("scene");
         let settings = RenderSettings { width: 32, height: 24, technique: spec.into(), ..Default::default() };
         let mut r = engine::renderer::Renderer::new(&gpu, &scene, settings).expect("renderer");
         r.render(&gpu).expect("frame");
@@ -826,7 +826,7 @@ fn fitted_weights_have_not_drifted_and_the_gpu_applies_them() {
 #[test]
 fn phase_variants_stop_after_their_phase() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("lamp-one", None).expect("scene");
+    let scene = scenes::build("lamp-one", None).expect("scene");
     let mut runs = Vec::new();
     // The whole map, so that the scene's one light is the only light (R × L products before the masks).
     let specs = engine::passes::shade::lobes::PHASES.iter().map(|p| format!("lobes:phase={p},env_lights=off"));
@@ -871,9 +871,9 @@ fn phase_variants_stop_after_their_phase() {
 fn the_papers_five_spheres_are_within_three_percent() {
     use engine::passes::shade::reference::Visibility;
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("spheres", None).expect("scene");
+    let scene = scenes::build("spheres", None).expect("scene");
     let settings = RenderSettings { width: W, height: H, ..Default::default() };
-    let reference = demos::measure::reference_at(&gpu, &scene, &settings, Visibility::Spheres, 1024, 64).unwrap();
+    let reference = lab::measure::reference_at(&gpu, &scene, &settings, Visibility::Spheres, 1024, 64).unwrap();
     let covered = |i: usize| reference.mask[i];
     let mut errors = Vec::new();
     for spec in ["lobes", "lobes:sharpen=1"] {
@@ -901,8 +901,8 @@ fn the_papers_five_spheres_are_within_three_percent() {
 fn deep_masks_stay_within_the_loop_budget_and_match_the_twin() {
     let gpu = engine_tests::gpu();
     let example = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/lamp_key.toml");
-    let assets = demos::assets_dir();
-    let u = demos::scenes::user::scene_file(&example, None, &assets, &Default::default()).expect("lamp_key.toml");
+    let assets = scenes::assets_dir();
+    let u = scenes::user::scene_file(&example, None, &assets, &Default::default()).expect("lamp_key.toml");
     let scene = u.scene;
     let planes = engine::resources::blockers::gather_planes(&scene).expect("planes");
     let lights = twin_lights(&scene);

@@ -2,14 +2,14 @@
 //! image after the switch equals a renderer built with those materials, the reference discards the samples it
 //! accumulated under the old ones, and a wrong count or a non-finite parameter is an error, not a frame.
 
-use demos::BrdfCycle;
-use engine::converge::reference_mut;
 use engine::math::envmap::LatLongMap;
 use engine::passes::shade::reference::ReferenceOptions;
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Material;
 use engine_tests::{assert_finite, fixtures::sphere_over_plane, gpu, relative_rmse, render};
 use glam::Vec3;
+use lab::converge::reference_mut;
+use scenes::BrdfCycle;
 
 const W: u32 = 32;
 const H: u32 = 24;
@@ -41,7 +41,7 @@ fn switched_materials_render_as_if_built_with_them() {
     r.render(&gpu).unwrap();
     let before = r.read_radiance(&gpu).unwrap();
     // Every preset, then back to the scene's own.
-    for _ in 0..=demos::BRDF_PRESETS.len() {
+    for _ in 0..=scenes::BRDF_PRESETS.len() {
         let materials = cycle.step().unwrap();
         r.set_materials(&gpu, &materials).unwrap();
         r.render(&gpu).unwrap();
@@ -88,14 +88,14 @@ fn the_reference_restarts_and_bad_materials_are_refused() {
 #[test]
 fn brdf_switch_targets_the_glossy_materials() {
     // Chess: the white and black pieces (materials 0 and 1), not the squares or the ground.
-    let chess = demos::scenes::build("chess", None).unwrap();
-    assert_eq!(demos::brdf_materials(&chess), vec![0, 1]);
+    let chess = scenes::build("chess", None).unwrap();
+    assert_eq!(scenes::brdf_materials(&chess), vec![0, 1]);
     // No glossy material: material 0, as --brdf always did.
-    let arm = demos::scenes::build("arm", None).unwrap();
-    assert_eq!(demos::brdf_materials(&arm), vec![0]);
+    let arm = scenes::build("arm", None).unwrap();
+    assert_eq!(scenes::brdf_materials(&arm), vec![0]);
     // Every preset parses and changes only the targets.
     let mut cycle = BrdfCycle::new(&chess);
-    for _ in 0..demos::BRDF_PRESETS.len() {
+    for _ in 0..scenes::BRDF_PRESETS.len() {
         let m = cycle.step().unwrap();
         assert_eq!(m[2..], chess.materials[2..], "{}", cycle.label());
         assert_ne!(m[0], chess.materials[0], "{}", cycle.label());

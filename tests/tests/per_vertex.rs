@@ -6,7 +6,7 @@ use engine::renderer::RenderSettings;
 #[test]
 fn per_vertex_matches_per_pixel_on_fine_sphere() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::sphere::scene(96);
+    let scene = scenes::sphere::scene(96);
     let base = RenderSettings { width: 96, height: 72, technique: "none".into(), ..Default::default() };
     let (pixel, _) = engine_tests::render(&gpu, &scene, base.clone());
     let (vertex, _) = engine_tests::render(&gpu, &scene, RenderSettings { per_vertex: true, ..base });

@@ -7,7 +7,6 @@
 //!
 //! The registry-wide closed-form test (every shadowing technique) is in techniques.rs.
 
-use engine::converge;
 use engine::math::envmap::LatLongMap;
 use engine::math::isg::IsgLut;
 use engine::passes::shade::isg::{cpu, Diffuse, IsgOptions};
@@ -18,6 +17,7 @@ use engine::scene::Scene;
 use engine_tests::fixtures::{ball_above_ground, GroundBlocker};
 use engine_tests::{assert_finite, relative_rmse, render_with_gbuffer, rgb, Receiver};
 use glam::{DVec3, Vec3};
+use lab::converge;
 
 const W: u32 = 48;
 const H: u32 = 36;
@@ -79,7 +79,7 @@ fn a_plane_without_geometry_hides_the_lower_hemisphere() {
 #[test]
 fn gpu_matches_the_f64_twin_with_planes() {
     let gpu = engine_tests::gpu();
-    let sky = demos::scenes::sphere::sky();
+    let sky = scenes::sphere::sky();
     let (c, r) = (Vec3::new(0.2, 0.6, -0.1), 0.45f32);
     let mut scene = engine_tests::fixtures::sphere_over_plane(sky.clone(), 0.7, c, r);
     scene.blockers.plane_meshes = vec![true, false];

@@ -4,13 +4,13 @@
 //! pixels beyond 3 se, where a Gaussian gives 0.27 %, and none beyond 6 se). Seeds are fixed, so
 //! every run gives the same bits.
 
-use engine::converge;
 use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
 use engine::passes::shade::reference::{ReferenceOptions, ReferenceStats, Visibility};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::{Camera, Instance, Material, Scene};
 use glam::{Mat4, Vec3};
+use lab::converge;
 use std::f64::consts::PI;
 
 fn renderer(gpu: &Gpu, scene: &Scene, w: u32, h: u32, options: ReferenceOptions) -> Renderer {
@@ -76,7 +76,7 @@ fn check_bounds(stats: &ReferenceStats, expected: &[Option<([f64; 3], [f64; 3])>
 }
 
 fn plane_scene(env: LatLongMap, albedo: f32) -> Scene {
-    let mut s = demos::scenes::furnace::scene(albedo, 1.0);
+    let mut s = scenes::furnace::scene(albedo, 1.0);
     s.environment = env;
     s
 }
@@ -116,7 +116,7 @@ const SPHERE_STACKS: u32 = 48;
 fn plane_and_sphere(env: LatLongMap, albedo: f32) -> Scene {
     let c = SPHERE_CENTRE.map(|x| x as f32);
     Scene {
-        meshes: vec![demos::scenes::shapes::ground_plane(1.0, 4), demos::scenes::shapes::uv_sphere(SPHERE_STACKS)],
+        meshes: vec![scenes::shapes::ground_plane(1.0, 4), scenes::shapes::uv_sphere(SPHERE_STACKS)],
         materials: vec![Material::diffuse(Vec3::splat(albedo)), Material::diffuse(Vec3::splat(0.8))],
         instances: vec![
             Instance { mesh: 0, transform: Mat4::IDENTITY, material: 0 },
@@ -138,7 +138,7 @@ fn plane_and_sphere(env: LatLongMap, albedo: f32) -> Scene {
 /// Radius of the largest sphere inside the tessellated unit sphere (its vertices lie on the unit
 /// sphere, so 1 bounds it from outside): the smallest distance from the centre to a face plane.
 fn inscribed_radius(stacks: u32) -> f64 {
-    let m = demos::scenes::shapes::uv_sphere(stacks);
+    let m = scenes::shapes::uv_sphere(stacks);
     m.indices
         .chunks_exact(3)
         .map(|t| {
@@ -274,7 +274,7 @@ fn sphere_light_over_a_plane() {
     let (albedo, ls) = (0.7f32, 5.0f32);
     let c = [0.3, 0.9, -0.2];
     let r_light = 0.25;
-    let mut scene = demos::scenes::furnace::scene(albedo, 0.0);
+    let mut scene = scenes::furnace::scene(albedo, 0.0);
     scene.lights.push(engine::scene::SphereLight {
         center: Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32),
         radius: r_light as f32,
@@ -394,7 +394,7 @@ fn per_vertex_constant_environment() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.4f32, 2.5f32);
     let mut scene = plane_scene(LatLongMap::constant(32, 16, [l; 3]), albedo);
-    scene.meshes[0] = demos::scenes::shapes::ground_plane(1.0, 16);
+    scene.meshes[0] = scenes::shapes::ground_plane(1.0, 16);
     let settings =
         RenderSettings { width: 32, height: 24, technique: "reference".into(), per_vertex: true, ..Default::default() };
     let mut r = Renderer::new(&gpu, &scene, settings).expect("renderer");
@@ -421,7 +421,7 @@ fn per_vertex_constant_environment() {
 #[ignore = "measurement, minutes on lavapipe"]
 fn bunny_proxy_error() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("bunny", None).expect("bunny scene");
+    let scene = scenes::build("bunny", None).expect("bunny scene");
     let (w, h) = (64, 48);
     let target = 1.5e-2;
     let run = |visibility| {
@@ -442,14 +442,14 @@ fn bunny_proxy_error() {
     // Split by receiver: the bunny (material 0, self-shadowing by its own spheres) and the ground (1).
     for (name, id) in [("bunny", 0), ("ground", 1)] {
         let m: Vec<bool> = materials.iter().map(|x| *x == Some(id)).collect();
-        let e = engine::metrics::relative_rmse_percent(&sph_img, &tri_img, &m);
+        let e = lab::metrics::relative_rmse_percent(&sph_img, &tri_img, &m);
         eprintln!("proxy error on the {name}: relative RMSE {e:.2} % over {} pixels", m.iter().filter(|x| **x).count());
     }
     gpu.shutdown().expect("clean teardown");
     let mask = &tri.covered;
-    let rmse = engine::metrics::relative_rmse_percent(&sph_img, &tri_img, mask);
-    let max = engine::metrics::max_error(&sph_img, &tri_img, mask);
-    let flip = engine::metrics::flip_mean(&sph_ldr, &tri_ldr, w, h, Some(mask));
+    let rmse = lab::metrics::relative_rmse_percent(&sph_img, &tri_img, mask);
+    let max = lab::metrics::max_error(&sph_img, &tri_img, mask);
+    let flip = lab::metrics::flip_mean(&sph_ldr, &tri_ldr, w, h, Some(mask));
     // The noise floor of the comparison: both references' standard errors combined.
     let floor = 100.0 * (tri.relative_stderr().powi(2) + sph.relative_stderr().powi(2)).sqrt();
     eprintln!(
@@ -460,7 +460,7 @@ fn bunny_proxy_error() {
     std::fs::create_dir_all(&dir).expect("out dir");
     engine::output::write_png(&dir.join("bunny-triangles.png"), w, h, &tri_ldr).expect("png");
     engine::output::write_png(&dir.join("bunny-spheres.png"), w, h, &sph_ldr).expect("png");
-    engine::metrics::write_error_heatmap(&dir.join("bunny-proxy-error.png"), &sph_img, &tri_img, mask, w, h, 0.1)
+    lab::metrics::write_error_heatmap(&dir.join("bunny-proxy-error.png"), &sph_img, &tri_img, mask, w, h, 0.1)
         .expect("heat map");
     assert!(rmse > floor, "the proxy error is below the references' noise");
 }

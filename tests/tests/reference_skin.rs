@@ -9,12 +9,12 @@
 //! - The reference image follows the pose: re-posing to A after B gives the same bits as rendering A fresh
 //!   (accumulation restarts with the pose), and A's image differs from B's where the shadow moved.
 
-use engine::converge;
 use engine::gpu::Gpu;
 use engine::passes::shade::reference::{skin_matrix, skinned_position, ReferenceOptions};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::resources::layout::GpuVertex;
 use glam::{Mat4, Vec3};
+use lab::converge;
 
 const W: u32 = 48;
 const H: u32 = 32;
@@ -51,7 +51,7 @@ fn compare_with_skin_pass(gpu: &Gpu, r: &mut Renderer, rest: &[Vec3]) -> (f32, f
 #[test]
 fn reference_triangles_are_the_skin_pass_world_vertices() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("arm", None).expect("arm");
+    let scene = scenes::build("arm", None).expect("arm");
     // The vertices as the old reference placed them: instance transform, no skinning.
     let rest: Vec<Vec3> = scene
         .instances
@@ -63,9 +63,9 @@ fn reference_triangles_are_the_skin_pass_world_vertices() {
     // moved.
     let poses: [Option<Vec<Mat4>>; 4] = [
         None,
-        Some(demos::scenes::arm::bones(0.0)),
-        Some(demos::scenes::arm::bones(30f32.to_radians())),
-        Some(demos::scenes::arm::bones(-45f32.to_radians())),
+        Some(scenes::arm::bones(0.0)),
+        Some(scenes::arm::bones(30f32.to_radians())),
+        Some(scenes::arm::bones(-45f32.to_radians())),
     ];
     for (i, pose) in poses.iter().enumerate() {
         if let Some(b) = pose {
@@ -108,9 +108,9 @@ fn host_skinning_twin_matches_its_formula() {
 #[test]
 fn reference_image_follows_the_pose() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("arm", None).expect("arm");
+    let scene = scenes::build("arm", None).expect("arm");
     // The scene as built is bent 60°.
-    let straight = demos::scenes::arm::bones(0.0);
+    let straight = scenes::arm::bones(0.0);
     let mean = |r: &mut Renderer| {
         let per_vertex = r.settings.per_vertex;
         converge::reference_mut(r).expect("reference").stats(&gpu, per_vertex).expect("stats")

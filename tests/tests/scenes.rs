@@ -1,4 +1,4 @@
-//! Every registered demo scene (demos/src/scenes) renders: a 32×24 frame at its rest pose and one posed by its
+//! Every registered demo scene (demos/scenes) renders: a 32×24 frame at its rest pose and one posed by its
 //! motion, finite and not blank, validation on, no leaks (the CPU checks are demos/tests/scenes.rs).
 
 use engine::renderer::{RenderSettings, Renderer};
@@ -8,11 +8,11 @@ use engine_tests::{assert_finite, gpu};
 fn every_registered_scene_renders() {
     let gpu = gpu();
     let settings = RenderSettings { width: 32, height: 24, ..Default::default() };
-    for entry in demos::scenes::SCENES {
-        let scene = demos::scenes::build(entry.name, None).unwrap_or_else(|e| panic!("{}: {e:#}", entry.name));
+    for entry in scenes::SCENES {
+        let scene = scenes::build(entry.name, None).unwrap_or_else(|e| panic!("{}: {e:#}", entry.name));
         let mut r = Renderer::new(&gpu, &scene, settings.clone()).unwrap_or_else(|e| panic!("{}: {e}", entry.name));
         let mut frames = vec![(0.0, r.render(&gpu).and_then(|_| r.read_radiance(&gpu)))];
-        if let Some(a) = demos::Animation::for_entry(entry, &scene) {
+        if let Some(a) = scenes::Animation::for_entry(entry, &scene) {
             let t = 1.5;
             a.apply(&mut r, t).unwrap_or_else(|e| panic!("{}: pose at {t} s: {e}", entry.name));
             frames.push((t, r.render(&gpu).and_then(|_| r.read_radiance(&gpu))));

@@ -21,7 +21,7 @@ const H: u32 = 30;
 fn scene_with(local: Vec<Sphere>) -> (Scene, Vec<Sphere>) {
     const C: Vec3 = Vec3::new(0.1, 0.6, -0.1);
     const R: f32 = 0.45;
-    let mut scene = engine_tests::fixtures::sphere_over_plane(demos::scenes::sphere::sky(), 0.7, C, R);
+    let mut scene = engine_tests::fixtures::sphere_over_plane(scenes::sphere::sky(), 0.7, C, R);
     let world = local.iter().map(|s| Sphere::new(C.as_dvec3() + s.center * R as f64, s.radius * R as f64)).collect();
     scene.blockers.spheres[1] = Some(local);
     (scene, world)
@@ -517,7 +517,7 @@ fn write_band_limited_environment() {
 fn bake_reuses_unchanged_clusters_and_changes_nothing() {
     use engine::renderer::Renderer;
     let gpu = engine_tests::gpu();
-    let loaded = demos::scenes::load("chess", None, &Default::default()).expect("chess");
+    let loaded = scenes::load("chess", None, &Default::default()).expect("chess");
     let animation = loaded.animation.clone().expect("chess moves");
     let make = |spec: &str| {
         let settings =

@@ -10,11 +10,11 @@
 //!   nodes, whose bounding spheres of the zero-radius leaves have a size. Every technique in the registry that
 //!   casts shadows must now darken the ground beside the strip's foot, for a lone sphere and for the default fit.
 
-use engine::converge;
 use engine::passes::shade::reference::{ReferenceOptions, Visibility};
 use engine::passes::shade::{TechniqueEntry, TECHNIQUES};
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
+use lab::converge;
 use std::path::{Path, PathBuf};
 
 const W: u32 = 48;
@@ -38,10 +38,10 @@ fn temp_dir(tag: &str) -> PathBuf {
 /// `spheres` fitted per mesh (None: the default count) into a fresh cache.
 fn strip_scene(dir: &Path, spheres: Option<usize>) -> Scene {
     let path = dir.join("SimpleSkin.gltf");
-    let (b, doc) = demos::gltf_writer::simple_skin();
-    b.write(doc, &path, demos::gltf_writer::Container::Embedded).expect("writing the strip");
-    let opts = demos::scenes::user::UserOptions { spheres, cache: Some(dir.join("cache")), ..Default::default() };
-    demos::scenes::user::single_model(&path, None, &demos::assets_dir(), &opts).expect("loading the strip").scene
+    let (b, doc) = scenes::gltf_writer::simple_skin();
+    b.write(doc, &path, scenes::gltf_writer::Container::Embedded).expect("writing the strip");
+    let opts = scenes::user::UserOptions { spheres, cache: Some(dir.join("cache")), ..Default::default() };
+    scenes::user::single_model(&path, None, &scenes::assets_dir(), &opts).expect("loading the strip").scene
 }
 
 /// Radiance and world positions of every pixel under `entry` (the reference with the sphere proxies).

@@ -1,9 +1,9 @@
 //! The short soak (the long one is `cargo xtask soak`, 10,000 frames): 300 animated frames at 32×24 through
-//! the viewer's per-frame path without a window (demos::soak), every technique in turn, per pixel and per
+//! the viewer's per-frame path without a window (lab::soak), every technique in turn, per pixel and per
 //! vertex, with the validation layer on. Host memory (VmRSS) and device memory (gpu-allocator's report) must
 //! stay within the bounds of `SoakOptions` after the warm-up cycle.
 
-use demos::soak::{run, SoakOptions};
+use lab::soak::{run, SoakOptions};
 
 #[test]
 fn three_hundred_animated_frames_keep_memory_flat() {
@@ -37,12 +37,12 @@ fn three_hundred_animated_frames_keep_memory_flat() {
 
 #[test]
 fn the_rss_reader_reads_this_process() {
-    let rss = demos::soak::host_rss().unwrap();
+    let rss = lab::soak::host_rss().unwrap();
     // A test binary with the engine linked in is at least a few MiB and far below 100 GiB.
     assert!(rss > 1 << 20 && rss < 100 << 30, "{rss}");
     // It tracks an allocation that is touched (64 MiB, every page written).
     let block = vec![1u8; 64 << 20];
-    let after = demos::soak::host_rss().unwrap();
+    let after = lab::soak::host_rss().unwrap();
     assert!(after >= rss + (48 << 20), "{rss} -> {after}");
     drop(block);
 }

@@ -5,7 +5,7 @@ use engine::renderer::{RenderSettings, Renderer};
 #[test]
 fn steady_frames_allocate_nothing() {
     let gpu = engine_tests::gpu();
-    let scene = demos::scenes::build("furnace", None).unwrap();
+    let scene = scenes::build("furnace", None).unwrap();
     let mut r = Renderer::new(
         &gpu,
         &scene,

@@ -12,7 +12,6 @@
 //!
 //! Monte Carlo techniques (`samples > 0`) accumulate that many samples per pixel first.
 
-use engine::converge;
 use engine::gpu::Gpu;
 use engine::math::envmap::LatLongMap;
 use engine::options::Kind;
@@ -21,6 +20,7 @@ use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::Scene;
 use engine_tests::{cap_cosine_fraction, relative_rmse, Receiver};
 use glam::{DVec3, Vec3};
+use lab::converge;
 
 const W: u32 = 48;
 const H: u32 = 36;
@@ -59,7 +59,7 @@ fn assert_finite(hdr: &[f32], what: &str) {
 fn furnace_every_technique() {
     let gpu = engine_tests::gpu();
     let (albedo, l) = (0.5f32, 2.0f32);
-    let scene = demos::scenes::furnace::scene(albedo, l);
+    let scene = scenes::furnace::scene(albedo, l);
     for entry in TECHNIQUES {
         let (hdr, g) = render(&gpu, &scene, entry);
         assert_finite(&hdr, entry.name);
@@ -77,7 +77,7 @@ fn furnace_every_technique() {
 fn no_blockers_equals_none() {
     let gpu = engine_tests::gpu();
     // A convex diffuse sphere: nothing occludes it but its own tangent plane, in every technique.
-    let scene = demos::scenes::sphere::scene(24);
+    let scene = scenes::sphere::scene(24);
     let none = TECHNIQUES.iter().find(|t| t.name == "none").expect("none is registered");
     let (base, g) = render(&gpu, &scene, none);
     for entry in TECHNIQUES {

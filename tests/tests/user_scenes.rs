@@ -1,14 +1,14 @@
 //! The user's own scenes (issue 16): glTF import with skins and animation checked against hand-computed matrices on
-//! files our own writer makes (`demos::gltf_writer`), in all three containers; instancing; more than four
+//! files our own writer makes (`scenes::gltf_writer`), in all three containers; instancing; more than four
 //! influences; OBJ `.mtl` materials; the scene description file; and bad input, each an error naming the file and
 //! the problem. The GPU tests render the two example scene files at a tiny size and check that the Monte Carlo
 //! reference traces the glTF-animated pose.
 
-use demos::gltf_writer::{two_bone_arm, Container, GltfBuilder, ARM_ROOT};
-use demos::scenes::user::{self, UserOptions};
 use engine::scene::{load_gltf, load_obj_with_materials};
 use engine_tests::assert_err_names;
 use glam::{Mat4, Quat, Vec3};
+use scenes::gltf_writer::{two_bone_arm, Container, GltfBuilder, ARM_ROOT};
+use scenes::user::{self, UserOptions};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -285,7 +285,7 @@ fn a_model_file_becomes_a_framed_scene_with_skinned_spheres_and_clips() {
     let cache = dir().join("cache-model");
     let _ = std::fs::remove_dir_all(&cache);
     let opts = small_fit(&cache);
-    let loaded = demos::scenes::load(p.to_str().unwrap(), None, &opts).unwrap();
+    let loaded = scenes::load(p.to_str().unwrap(), None, &opts).unwrap();
     let s = &loaded.scene;
     // arm, stone (one mesh for two instances), ground.
     assert_eq!(s.meshes.len(), 3);
@@ -299,18 +299,17 @@ fn a_model_file_becomes_a_framed_scene_with_skinned_spheres_and_clips() {
     assert!((s.camera.target - 0.5 * (lo + hi)).length() < 1e-5);
     // Fitted once: the cache holds a file per mesh, and a second load reads it.
     assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 2);
-    let again = demos::scenes::load(p.to_str().unwrap(), None, &opts).unwrap();
+    let again = scenes::load(p.to_str().unwrap(), None, &opts).unwrap();
     assert_eq!(again.scene.blockers.spheres, s.blockers.spheres);
     // --animate plays every clip in turn (bend 2 s, lift 2 s, pulse 1 s); --clip one.
     let all = loaded.animation.expect("clips");
-    let at = |a: &demos::Animation, t: f32| a.pose(t).bones.unwrap()[1];
+    let at = |a: &scenes::Animation, t: f32| a.pose(t).bones.unwrap()[1];
     let root = Mat4::from_translation(Vec3::from(ARM_ROOT));
     let elbow =
         Mat4::from_translation(Vec3::X) * Mat4::from_rotation_z(30f32.to_radians()) * Mat4::from_translation(-Vec3::X);
     close(at(&all, 0.5), root * elbow, "all: bend first");
     close(at(&all, 2.5), Mat4::from_translation(Vec3::new(-1.0, 0.875, 0.0)), "all: then lift");
-    let pulse =
-        demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("pulse".into()), ..opts.clone() });
+    let pulse = scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("pulse".into()), ..opts.clone() });
     close(at(&pulse.unwrap().animation.unwrap(), 1.0), root * Mat4::from_scale(Vec3::splat(1.2)), "--clip pulse");
     // As the registry's check does for registered motions: every pose finite, one matrix per bone, at a spread of
     // times (an hour in included).
@@ -322,7 +321,7 @@ fn a_model_file_becomes_a_framed_scene_with_skinned_spheres_and_clips() {
         );
         assert!(pose.transforms.iter().all(|(i, _)| *i < s.instances.len()));
     }
-    let e = demos::scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("wave".into()), ..opts });
+    let e = scenes::load(p.to_str().unwrap(), None, &UserOptions { clip: Some("wave".into()), ..opts });
     let e = format!("{:#}", e.err().unwrap());
     assert!(e.contains("wave") && e.contains("bend") && e.contains(&p.display().to_string()), "{e}");
 }
@@ -349,7 +348,7 @@ fn scene_file_errors_name_the_file_the_line_and_the_key() {
     let d = dir();
     write_arm("model.gltf", Container::Embedded);
     let opts = small_fit(&d.join("cache-errors"));
-    let assets = demos::assets_dir();
+    let assets = scenes::assets_dir();
     let ok = d.join("ok.toml");
     std::fs::write(&ok, SCENE_OK).unwrap();
     let u = user::scene_file(&ok, None, &assets, &opts).unwrap();
@@ -382,7 +381,7 @@ fn scene_file_errors_name_the_file_the_line_and_the_key() {
 #[test]
 fn a_sphere_file_of_another_mesh_is_refused() {
     let d = dir();
-    let bunny_spheres = demos::assets_dir().join("meshes/bunny.spheres.json");
+    let bunny_spheres = scenes::assets_dir().join("meshes/bunny.spheres.json");
     let p = write_arm("model-s.gltf", Container::Embedded);
     let scene = d.join("wrong-spheres.toml");
     let text = format!(
@@ -393,7 +392,7 @@ fn a_sphere_file_of_another_mesh_is_refused() {
     );
     std::fs::write(&scene, text).unwrap();
     let e =
-        format!("{:#}", user::scene_file(&scene, None, &demos::assets_dir(), &UserOptions::default()).err().unwrap());
+        format!("{:#}", user::scene_file(&scene, None, &scenes::assets_dir(), &UserOptions::default()).err().unwrap());
     assert!(e.contains("bunny.spheres.json") && e.contains("another mesh"), "{e}");
 }
 
@@ -423,10 +422,13 @@ fn environment_rotation_shifts_columns() {
 fn examples_gltf_is_the_writers_output() {
     let shipped = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/arm.gltf");
     let fresh = dir().join("example-arm.gltf");
-    let (b, doc) = demos::gltf_writer::example_arm();
+    let (b, doc) = scenes::gltf_writer::example_arm();
     b.write(doc, &fresh, Container::Embedded).unwrap();
     let (a, b) = (std::fs::read_to_string(&shipped).unwrap(), std::fs::read_to_string(&fresh).unwrap());
-    assert!(a == b, "examples/arm.gltf drifted from demos::gltf_writer: `cargo run -p demos --bin write_gltf_example`");
+    assert!(
+        a == b,
+        "examples/arm.gltf drifted from scenes::gltf_writer: `cargo run -p scenes --bin write_gltf_example`"
+    );
 }
 
 /// The complete scene-file example of docs/scene-files.md parses (every key it shows exists, with the type it
@@ -478,7 +480,7 @@ fn sparse_accessors_are_applied() {
 #[test]
 fn material_maps_blend_lafortune_per_vertex() {
     use engine::scene::Brdf;
-    let assets = demos::assets_dir();
+    let assets = scenes::assets_dir();
     let example = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/lafortune_map.toml");
     let u = user::scene_file(&example, None, &assets, &UserOptions::default()).unwrap();
     let s = &u.scene;
@@ -536,13 +538,13 @@ fn material_maps_blend_lafortune_per_vertex() {
 /// and 4 spherical lights, the first two `lamp`'s, and its 64 shipped spheres.
 #[test]
 fn lights_examples_differ_only_in_their_lights() {
-    let assets = demos::assets_dir();
+    let assets = scenes::assets_dir();
     let load = |n: usize| {
         let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("../examples/lights/{n}.toml"));
         user::scene_file(&file, None, &assets, &UserOptions::default()).unwrap_or_else(|e| panic!("{n}.toml: {e:#}"))
     };
     let scenes: Vec<_> = [1, 2, 4].map(load).into_iter().map(|u| u.scene).collect();
-    let lamp = demos::scenes::build("lamp", None).expect("lamp");
+    let lamp = scenes::build("lamp", None).expect("lamp");
     for (s, n) in scenes.iter().zip([1, 2, 4]) {
         assert_eq!(s.lights.len(), n);
         assert_eq!(s.lights[..n.min(2)], lamp.lights[..n.min(2)], "{n}.toml: lamp's lights first");

@@ -2,12 +2,12 @@
 //! reference traces the glTF-animated pose (issue 16 item 4: its triangle BVH is rebuilt per pose, so a
 //! glTF-animated frame has a triangle ground truth): the triangles it traces equal the skin pass's world vertices.
 
-use demos::scenes::user::{self, UserOptions};
-use engine::converge;
 use engine::passes::shade::reference::ReferenceOptions;
 use engine::renderer::{RenderSettings, Renderer};
 use engine::resources::layout::GpuVertex;
 use glam::Vec3;
+use lab::converge;
+use scenes::user::{self, UserOptions};
 use std::path::PathBuf;
 
 const W: u32 = 64;
@@ -37,7 +37,7 @@ fn options(test: &str) -> UserOptions {
 #[test]
 fn example_scene_files_render_and_the_arm_moves() {
     let gpu = engine_tests::gpu();
-    let assets = demos::assets_dir();
+    let assets = scenes::assets_dir();
     for name in ["arm.toml", "still_life.toml", "glossy_light.toml", "lafortune_map.toml"] {
         let u = user::scene_file(&example(name), None, &assets, &options("examples"))
             .unwrap_or_else(|e| panic!("{name}: {e:#}"));
@@ -48,7 +48,7 @@ fn example_scene_files_render_and_the_arm_moves() {
         engine_tests::assert_finite(&first, name);
         assert!(first.iter().any(|v| *v > 0.0), "{name}: a black image");
         if let Some(clips) = u.clips {
-            let a = demos::Animation::clips(clips);
+            let a = scenes::Animation::clips(clips);
             a.apply(&mut r, 1.0).unwrap();
             r.render(&gpu).unwrap();
             let bent = r.read_radiance(&gpu).unwrap();
@@ -66,12 +66,12 @@ fn example_scene_files_render_and_the_arm_moves() {
 fn the_reference_traces_the_gltf_animated_pose() {
     let gpu = engine_tests::gpu();
     let u =
-        user::scene_file(&example("arm.toml"), None, &demos::assets_dir(), &options("reference")).expect("arm.toml");
+        user::scene_file(&example("arm.toml"), None, &scenes::assets_dir(), &options("reference")).expect("arm.toml");
     let settings = RenderSettings { width: 32, height: 24, technique: "reference".into(), ..Default::default() };
     let mut r = Renderer::new(&gpu, &u.scene, settings).expect("renderer");
     let opts = ReferenceOptions { samples_per_frame: 4, ..ReferenceOptions::default() };
     converge::reference_mut(&mut r).expect("reference").set_options(opts).expect("options");
-    let clips = demos::Animation::clips(u.clips.expect("the arm has clips"));
+    let clips = scenes::Animation::clips(u.clips.expect("the arm has clips"));
     for t in [0.0, 1.0] {
         clips.apply(&mut r, t).unwrap();
         r.render(&gpu).unwrap();

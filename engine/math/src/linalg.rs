@@ -104,6 +104,17 @@ pub fn solve<const N: usize>(mut a: [[f64; N]; N], mut y: [f64; N]) -> [f64; N] 
     x
 }
 
+/// sqrt(num / den): 0 for 0/0 and ∞ for x/0 (the relative-RMSE quotient of sums of squares).
+pub fn sqrt_ratio(num: f64, den: f64) -> f64 {
+    if den > 0.0 {
+        (num / den).sqrt()
+    } else if num > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    }
+}
+
 #[cfg(test)]
 mod solve_tests {
     #[test]

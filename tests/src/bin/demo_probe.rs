@@ -1,8 +1,7 @@
 //! Creates a GPU context and reports the error, if any, as the demo would (used by the
 //! "no Vulkan device" test, which runs it with the loader pointed at no driver).
 fn main() {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    scenes::init_logging();
     match engine::gpu::Gpu::new(&engine::gpu::GpuDesc { verbose: false, ..Default::default() }) {
         Ok(gpu) => {
             let _ = gpu.shutdown();

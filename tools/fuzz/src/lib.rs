@@ -260,7 +260,7 @@ fn load_spheres(p: &Path) -> Result<(), String> {
 /// (models, environment, sphere fits) reads other files through the loaders fuzzed above.
 fn parse_scene(p: &Path) -> Result<(), String> {
     let text = engine::io::read_to_string(p, engine::io::Limit::SCENE).map_err(|e| e.to_string())?;
-    demos::scenes::user::parse_scene_file(&text).map(|_| ())
+    scenes::user::parse_scene_file(&text).map(|_| ())
 }
 
 /// Every target: one per loader.

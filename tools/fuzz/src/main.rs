@@ -41,8 +41,7 @@ fn seconds(s: &str) -> Result<Duration, String> {
 }
 
 fn main() {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    scenes::init_logging();
     let Args { target: name, runs, seconds, seed, dir } = <Args as clap::Parser>::parse();
     let chosen: Vec<_> = match name.as_str() {
         "all" => TARGETS.iter().collect(),

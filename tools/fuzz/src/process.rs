@@ -314,8 +314,7 @@ fn places_help() -> String {
 }
 
 fn main() {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    demos::init_logging();
+    scenes::init_logging();
     let a = <Args as clap::Parser>::parse();
     let mut s = Settings {
         demo: a.demo,
@@ -392,7 +391,7 @@ fn main() {
             s.seed,
             s.timeout.as_secs(),
             s.memory_kib >> 10,
-            demos::bench::COMMIT,
+            lab::bench::COMMIT,
             s.memory_kib >> 10,
             s.timeout.as_secs(),
             rows.join("\n")

@@ -78,8 +78,6 @@ fn sci(v: f64) -> String {
 }
 
 fn main() {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let args = parse();
     if let Err(e) = run(&args) {
         eprintln!("report-math: {e}");

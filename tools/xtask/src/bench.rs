@@ -1,4 +1,4 @@
-//! `cargo xtask bench [bench args]`: build the `bench` binary (release) and run it (demos/src/bench.rs).
+//! `cargo xtask bench [bench args]`: build the `bench` binary (release) and run it (demos/lab/src/bench.rs).
 //! `cargo xtask bench-package [--out DIR]`: the bench as a folder and a `.tar.gz` that runs on a Linux x86-64
 //! machine with a Vulkan driver but no Rust toolchain and no network: `./run.sh [bench args]`.
 
@@ -9,7 +9,7 @@ use std::process::Command;
 
 pub fn bench(rest: &[String]) -> Result<()> {
     let mut c = cargo();
-    c.args(["run", "--release", "--quiet", "-p", "demos", "--bin", "bench", "--"]).args(rest);
+    c.args(["run", "--release", "--quiet", "-p", "lab", "--bin", "bench", "--"]).args(rest);
     run(c)
 }
 
@@ -57,7 +57,7 @@ pub fn package(rest: &[String]) -> Result<()> {
         }
     }
     let mut build = cargo();
-    build.args(["build", "--release", "--quiet", "-p", "demos", "--bin", "bench", "--bin", "demo"]);
+    build.args(["build", "--release", "--quiet", "-p", "lab", "-p", "demos", "--bin", "bench", "--bin", "demo"]);
     run(build)?;
     let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| root().join("target"));
     let dir = out.join("engine-bench");

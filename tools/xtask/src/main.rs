@@ -55,8 +55,6 @@ fn usage_error(message: &str) -> ! {
 }
 
 fn main() {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(cmd) = args.first() else { usage_error("no command given") };
     let rest = &args[1..];
@@ -69,7 +67,7 @@ fn main() {
         "tables" => tables::run(rest),
         "lobes-weights" => {
             let mut c = cargo();
-            c.args(["run", "--release", "--quiet", "-p", "demos", "--bin", "lobes_weights", "--"]).args(rest);
+            c.args(["run", "--release", "--quiet", "-p", "lab", "--bin", "lobes_weights", "--"]).args(rest);
             run(c)
         }
         "report" => setup().and_then(|_| report::run(rest)),

@@ -1,6 +1,6 @@
 //! `cargo xtask report`: measurement reports into out/report.
 //! `report math` is the mathematics report (report_math.rs); the rest is the speed-against-error sweep
-//! (demos/src/report.rs, run as the release binary `report`: `[--tiny | --sweep NAME] [--config FILE] [--out DIR]`).
+//! (demos/lab/src/report/, run as the release binary `report`: `[--tiny | --sweep NAME] [--config FILE] [--out DIR]`).
 
 use anyhow::Result;
 
@@ -11,7 +11,7 @@ pub fn run(args: &[String]) -> Result<()> {
         Some("math") => report_math::run(&args[1..]),
         _ => {
             let mut c = crate::cargo();
-            c.args(["run", "--release", "--quiet", "-p", "demos", "--bin", "report", "--"]).args(args);
+            c.args(["run", "--release", "--quiet", "-p", "lab", "--bin", "report", "--"]).args(args);
             crate::run(c)
         }
     }

@@ -40,8 +40,6 @@ struct Args {
 }
 
 fn main() -> std::process::ExitCode {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     // Print the error chain on one line, without anyhow's backtrace (this is a user-facing tool).
     match run(Args::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -176,8 +176,6 @@ fn check(a: &Args, tables: &[MathTable]) -> Result<(), String> {
 }
 
 fn main() {
-    // The workspace's logger set-up (demos::init_logging): RUST_LOG, warnings by default.
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let result = parse().and_then(|a| {
         let tables = selected(&a)?;
         if a.check {

@@ -446,7 +446,7 @@ impl ReferenceStats {
                 den += (m[k] as f64) * (m[k] as f64);
             }
         }
-        crate::metrics::sqrt_ratio(num, den)
+        engine_math::linalg::sqrt_ratio(num, den)
     }
 }
 

@@ -1,0 +1,239 @@
+//! `compare`: measure techniques against the Monte Carlo reference on one frame of a scene.
+//!
+//! For each `--technique SPEC` it renders `--frames` frames (median per-pass GPU times), then
+//! converges the reference (sphere proxies and/or triangles; always per pixel, also with `--per-vertex`)
+//! until its own relative standard error is at most `--fraction` of the error being measured, and prints relative RMSE (%) over covered
+//! pixels, max error, FLIP mean, and the technique's shade time against the reference's time per
+//! sample. Heat maps and images go to `--out`.
+//!
+//! `cargo run --release -p lab --bin compare -- --scene bunny --gloss 1000 --ks 0.5 --technique isg`
+
+use anyhow::{bail, Context, Result};
+use clap::Parser;
+use engine::gpu::{Gpu, GpuDesc};
+use engine::passes::shade::reference::Visibility;
+use engine::renderer::RenderSettings;
+use lab::measure::{self, file_stem};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(name = "compare", about = "Techniques against the Monte Carlo reference: relative RMSE, FLIP, GPU time")]
+struct Args {
+    /// Scene (the registry in demos/scenes).
+    #[arg(long, default_value = "bunny", value_parser = scenes::value_parser())]
+    scene: String,
+    /// Environment map (.exr or .hdr) instead of the scene's.
+    #[arg(long)]
+    env: Option<PathBuf>,
+    /// Technique specs to measure (repeatable), e.g. `isg`, `isg:patches=8,K=4`, `none`.
+    #[arg(long = "technique", default_values_t = vec!["isg".to_string()])]
+    techniques: Vec<String>,
+    #[arg(long, default_value_t = 200)]
+    width: u32,
+    #[arg(long, default_value_t = 150)]
+    height: u32,
+    /// Override the Blinn-Phong exponent of material 0 (the bunny).
+    #[arg(long)]
+    gloss: Option<f32>,
+    /// Override k_s of material 0.
+    #[arg(long)]
+    ks: Option<f32>,
+    /// Specular BRDF of the glossy materials (applied after --gloss/--ks), as `demo --brdf`:
+    /// `cook-torrance:roughness=0.1,ks=0.5`, `ashikhmin-shirley:nu=1000,nv=100,ks=0.5`, ….
+    #[arg(long, value_name = "SPEC")]
+    brdf: Option<String>,
+    /// Reference visibility: `spheres` (the proxy ground truth), `triangles`, `both`, `unoccluded` (no
+    /// shadows: the techniques' lighting and BRDF representation error alone), or `none` (only the
+    /// techniques' times).
+    #[arg(long, default_value = "both")]
+    visibility: String,
+    /// Refit mesh 0 (the bunny) with this many blocker spheres (cached in <out>/spheres/).
+    #[arg(long)]
+    spheres: Option<usize>,
+    /// Stop the reference when its relative standard error is this fraction of the measured error.
+    #[arg(long, default_value_t = 0.2)]
+    fraction: f64,
+    /// Most samples per pixel for the reference.
+    #[arg(long, default_value_t = 4096)]
+    max_spp: u32,
+    /// Frames per technique (times are medians).
+    #[arg(long, default_value_t = 3)]
+    frames: u32,
+    #[arg(long, default_value = "out/compare")]
+    out: PathBuf,
+    /// Per-vertex shading for the techniques. The reference is always rendered per pixel: a per-vertex
+    /// technique is measured against the per-pixel truth, so its error includes what interpolating between
+    /// vertices loses.
+    #[arg(long)]
+    per_vertex: bool,
+    /// Drop the scene's plane blockers (the ground as a blocker): the sphere set alone, as before planes.
+    #[arg(long)]
+    no_plane_blockers: bool,
+    /// Keep converged references in this folder, and reuse them. A file is keyed by everything that determines
+    /// its image: the scene's content as built (the scene file and every file it loads, the environment, the
+    /// overrides --gloss, --ks, --brdf, --spheres, --no-plane-blockers, --env, --time), the size, the
+    /// visibility, --fraction, --max-spp and the reference's code (its version and its shaders' sources); an
+    /// edited scene or mesh is a new file. The fraction rule converges against the techniques of the first
+    /// run: pass a small `--fraction` (or rely on `--max-spp`) when caching.
+    #[arg(long)]
+    reference_cache: Option<PathBuf>,
+    /// Measure the scene as its motion poses it at this time (s), frozen: instance transforms and bones from
+    /// the motion, a simulated cloth run on the GPU to that time (scenes::cloth::frozen_at). With
+    /// --reference-cache the time is part of the key (the motion and the cloth simulation are deterministic).
+    #[arg(long)]
+    time: Option<f32>,
+    #[command(flatten)]
+    env_lights: scenes::env_lights::EnvLightArgs,
+    /// Measure one part of the environment split by the scene's settings (and the --env-lights* options), against a
+    /// reference of that part alone: `residual` (the environment replaced by its residual, no environment lights)
+    /// or `lights` (a black environment, the environment's bright regions as spherical lights beside the scene's).
+    #[arg(long, value_enum, default_value = "whole")]
+    env_part: scenes::env_lights::EnvPart,
+}
+
+fn main() {
+    scenes::init_logging();
+    scenes::exit_on_error(run());
+}
+
+fn run() -> Result<()> {
+    let args = Args::parse();
+    let mut scene = scenes::build(&args.scene, args.env.as_deref())?;
+    if let Some(m) = scene.materials.first_mut() {
+        if let Some(s) = args.gloss {
+            m.shininess = s;
+        }
+        if let Some(k) = args.ks {
+            m.specular = glam::Vec3::splat(k);
+        }
+    }
+    if let Some(spec) = &args.brdf {
+        scenes::apply_brdf(&mut scene, spec)?;
+    }
+    args.env_lights.apply(&mut scene);
+    scenes::env_lights::keep_part(&mut scene, args.env_part);
+    if args.no_plane_blockers {
+        scene.blockers.planes.clear();
+        scene.blockers.plane_meshes.clear();
+    }
+    let visibilities: Vec<(&str, Visibility)> = match args.visibility.as_str() {
+        "spheres" => vec![("spheres", Visibility::Spheres)],
+        "triangles" => vec![("triangles", Visibility::Triangles)],
+        "both" => vec![("spheres", Visibility::Spheres), ("triangles", Visibility::Triangles)],
+        "unoccluded" => vec![("unoccluded", Visibility::Unoccluded)],
+        "none" => Vec::new(),
+        v => bail!("--visibility {v}: use spheres, triangles, both, unoccluded or none"),
+    };
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    if let Some(count) = args.spheres {
+        measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
+    }
+    let gpu = Gpu::new(&GpuDesc::default())?;
+    if let Some(t) = args.time {
+        scene = measure::freeze_at(&gpu, &args.scene, scene, t).with_context(|| format!("--time {t}"))?;
+    }
+    let result = measure(&gpu, &scene, &args, &visibilities);
+    gpu.shutdown()?;
+    result
+}
+
+fn settings(args: &Args, technique: &str) -> RenderSettings {
+    RenderSettings {
+        width: args.width,
+        height: args.height,
+        technique: technique.into(),
+        per_vertex: args.per_vertex,
+        ..Default::default()
+    }
+}
+
+fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &[(&str, Visibility)]) -> Result<()> {
+    let (w, h) = (args.width, args.height);
+    let mut measured = Vec::new();
+    for spec in &args.techniques {
+        eprintln!("rendering {spec} ({} frames)...", args.frames);
+        let m = measure::measure_technique(gpu, scene, settings(args, spec), args.frames)?;
+        engine::output::write_png(&args.out.join(format!("{}.png", file_stem(spec))), w, h, &m.ldr)?;
+        engine::output::write_exr(&args.out.join(format!("{}.exr", file_stem(spec))), w, h, &m.hdr)?;
+        measured.push(m);
+    }
+    println!(
+        "scene {}{}{} {}x{}{}, gloss {:?}, ks {:?}, brdf {}",
+        args.scene,
+        if args.no_plane_blockers { " (no plane blockers)" } else { "" },
+        args.spheres.map(|n| format!(" ({n} spheres)")).unwrap_or_default(),
+        w,
+        h,
+        if args.per_vertex { " per vertex" } else { "" },
+        args.gloss,
+        args.ks,
+        args.brdf.as_deref().unwrap_or("(scene's)")
+    );
+    if visibilities.is_empty() {
+        println!("| technique | shade ms |");
+        println!("|---|---|");
+        for m in &measured {
+            println!("| {} | {:.2} |", m.spec, m.shade_ms);
+        }
+    }
+    for (vis_name, vis) in visibilities {
+        // Converge against the most accurate technique measured (the smallest error).
+        eprintln!("converging the {vis_name} reference (max {} spp)...", args.max_spp);
+        let against: Vec<&[f32]> = measured.iter().map(|m| m.hdr.as_slice()).collect();
+        let run = measure::ReferenceRun {
+            visibility: *vis,
+            fraction: args.fraction,
+            max_spp: args.max_spp,
+            samples_per_frame: 16,
+        };
+        let cache = match &args.reference_cache {
+            Some(dir) => Some(measure::reference_cache_file(gpu, dir, &args.scene, scene, w, h, &run)?),
+            None => None,
+        };
+        let cached = cache.as_ref().filter(|p| p.exists()).map(|p| {
+            eprintln!("reference from the cache {}", p.display());
+            measure::ReferenceImage::load(p, *vis, (w * h) as usize)
+        });
+        let r = match cached {
+            Some(r) => r?,
+            None => {
+                let r = measure::converge_reference(gpu, scene, &settings(args, "reference"), &run, &against)?;
+                if let Some(p) = &cache {
+                    if let Some(dir) = p.parent() {
+                        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+                    }
+                    r.save(p)?;
+                }
+                r
+            }
+        };
+        println!(
+            "reference ({vis_name}): {} spp in {:.0} s, relative standard error {:.3} % ({}converged), {:.1} ms per sample per pixel-frame",
+            r.report.samples,
+            r.seconds,
+            100.0 * r.report.relative_stderr,
+            if r.report.converged { "" } else { "not " },
+            r.ms_per_sample
+        );
+        engine::output::write_png(&args.out.join(format!("reference-{vis_name}.png")), w, h, &r.ldr)?;
+        engine::output::write_exr(&args.out.join(format!("reference-{vis_name}.exr")), w, h, &r.hdr)?;
+        println!("| technique | vs {vis_name} reference: rel. RMSE % | minus reference noise % | max error | FLIP mean | shade ms | ref. samples at that time |");
+        println!("|---|---|---|---|---|---|---|");
+        for m in &measured {
+            let e = measure::errors(&m.hdr, &m.ldr, &r, w, h);
+            let stem = file_stem(&m.spec);
+            measure::write_heatmap(&args.out.join(format!("{stem}-vs-{vis_name}-error.png")), &m.hdr, &r, w, h)?;
+            println!(
+                "| {} | {:.2} | {:.2} | {:.3} | {:.4} | {:.2} | {:.1} |",
+                m.spec,
+                e.rmse,
+                e.debiased,
+                e.max_abs,
+                e.flip,
+                m.shade_ms,
+                m.shade_ms / r.ms_per_sample
+            );
+        }
+    }
+    Ok(())
+}
