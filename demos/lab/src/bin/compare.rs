@@ -89,6 +89,23 @@ struct Args {
     /// or `lights` (a black environment, the environment's bright regions as spherical lights beside the scene's).
     #[arg(long, value_enum, default_value = "whole")]
     env_part: scenes::env_lights::EnvPart,
+    /// Measure a clip instead of a still: N consecutive frames, from --time (default 0) every --clip-step
+    /// seconds, each technique against references of the same frames at --max-spp samples (no early stop, so
+    /// every frame's reference has the same noise): error per frame (mean, max), the frame-to-frame change of
+    /// the technique and of the reference, the flicker (the change the technique makes that the reference
+    /// does not), net of the references' noise (lab::temporal). Writes clip.csv and clip-error-*.svg.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(3..=240))]
+    clip: Option<u32>,
+    /// Seconds between the clip's frames.
+    #[arg(long, value_name = "S", default_value_t = 1.0 / 30.0, value_parser = parse_step)]
+    clip_step: f32,
+}
+
+fn parse_step(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 10.0 => Ok(v),
+        _ => Err(format!("{s:?}: a number of seconds in (0, 10]")),
+    }
 }
 
 fn main() {
@@ -129,6 +146,11 @@ fn run() -> Result<()> {
         measure::refit_first_mesh(&mut scene, &args.scene, count, &args.out.join("spheres"))?;
     }
     let gpu = Gpu::new(&GpuDesc::default())?;
+    if let Some(n) = args.clip {
+        let result = measure_clip(&gpu, &scene, &args, &visibilities, n);
+        gpu.shutdown()?;
+        return result;
+    }
     if let Some(t) = args.time {
         scene = measure::freeze_at(&gpu, &args.scene, scene, t).with_context(|| format!("--time {t}"))?;
     }
@@ -235,5 +257,108 @@ fn measure(gpu: &Gpu, scene: &engine::scene::Scene, args: &Args, visibilities: &
             );
         }
     }
+    Ok(())
+}
+
+/// `--clip N`: every technique and reference at N consecutive frames, then the clip's statistics per technique
+/// and visibility (lab::temporal::clip_stats).
+fn measure_clip(
+    gpu: &Gpu,
+    scene: &engine::scene::Scene,
+    args: &Args,
+    visibilities: &[(&str, Visibility)],
+    n: u32,
+) -> Result<()> {
+    if visibilities.is_empty() {
+        bail!("--clip needs a reference: --visibility spheres, triangles, both or unoccluded");
+    }
+    let (w, h) = (args.width, args.height);
+    let t0 = args.time.unwrap_or(0.0);
+    // [frame][technique] linear RGB, and [frame][visibility] reference.
+    let mut techniques: Vec<Vec<Vec<[f32; 3]>>> = Vec::new();
+    let mut references: Vec<Vec<measure::ReferenceImage>> = Vec::new();
+    let mut shade_ms: Vec<Vec<f64>> = vec![Vec::new(); args.techniques.len()];
+    for k in 0..n {
+        let t = t0 + k as f32 * args.clip_step;
+        eprintln!("clip frame {}/{n} at t = {t:.4} s...", k + 1);
+        let frozen = measure::freeze_at(gpu, &args.scene, scene.clone(), t).with_context(|| format!("time {t}"))?;
+        let mut row = Vec::new();
+        for (i, spec) in args.techniques.iter().enumerate() {
+            let m = measure::measure_technique(gpu, &frozen, settings(args, spec), args.frames)?;
+            shade_ms[i].push(m.shade_ms);
+            if k == 0 {
+                engine::output::write_png(&args.out.join(format!("clip0-{}.png", file_stem(spec))), w, h, &m.ldr)?;
+            }
+            row.push(measure::rgb_items(&m.hdr));
+        }
+        techniques.push(row);
+        let mut refs = Vec::new();
+        for (vis_name, vis) in visibilities {
+            let r = measure::reference_at(gpu, &frozen, &settings(args, "reference"), *vis, args.max_spp, 16)?;
+            if k == 0 {
+                engine::output::write_png(&args.out.join(format!("clip0-reference-{vis_name}.png")), w, h, &r.ldr)?;
+            }
+            refs.push(r);
+        }
+        references.push(refs);
+    }
+    println!(
+        "scene {} {}x{}{}, clip of {n} frames from t = {t0} s every {} s, references at {} spp",
+        args.scene,
+        w,
+        h,
+        if args.per_vertex { " per vertex" } else { "" },
+        args.clip_step,
+        args.max_spp
+    );
+    let mut csv = String::from("technique,visibility,frame,time_s,error_pct\n");
+    for (v, (vis_name, _)) in visibilities.iter().enumerate() {
+        println!(
+            "| technique | vs {vis_name}: mean error % | max error % | max/mean | change % | reference change % | \
+             flicker % | step scaling (ref.) | shade ms |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|");
+        let mut plot =
+            lab::plot::Plot::new(format!("{}: error per frame against the {vis_name} reference", args.scene))
+                .x_axis("time (s)", lab::plot::Scale::Linear)
+                .y_axis("relative RMSE %, net of noise", lab::plot::Scale::Linear);
+        for (i, spec) in args.techniques.iter().enumerate() {
+            let frames: Vec<lab::temporal::ClipFrame> = (0..n as usize)
+                .map(|k| lab::temporal::ClipFrame {
+                    technique: &techniques[k][i],
+                    reference: &references[k][v].halves,
+                    covered: &references[k][v].mask,
+                })
+                .collect();
+            let s = lab::temporal::clip_stats(&frames).context("no pixel is covered in every frame of the clip")?;
+            println!(
+                "| {spec} | {:.2} | {:.2} | {:.2} | {:.3} | {:.3} | {:.3} | {:.2} ({:.2}) | {:.2} |",
+                s.error_mean,
+                s.error_max,
+                s.error_max / s.error_mean.max(1e-9),
+                s.change,
+                s.reference_change,
+                s.flicker,
+                s.step_scaling,
+                s.reference_step_scaling,
+                measure::median(shade_ms[i].clone())
+            );
+            let points: Vec<(f64, f64)> = s
+                .error_per_frame
+                .iter()
+                .enumerate()
+                .map(|(k, e)| ((t0 + k as f32 * args.clip_step) as f64, *e))
+                .collect();
+            for (k, (t, e)) in points.iter().enumerate() {
+                csv.push_str(&format!("{spec},{vis_name},{k},{t:.6},{e:.4}\n"));
+            }
+            plot = plot.line(spec.clone(), points);
+        }
+        let svg = args.out.join(format!("clip-error-{vis_name}.svg"));
+        std::fs::write(&svg, plot.to_svg()).with_context(|| format!("writing {}", svg.display()))?;
+    }
+    let path = args.out.join("clip.csv");
+    std::fs::write(&path, csv).with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("wrote {} and clip-error-*.svg", path.display());
     Ok(())
 }
