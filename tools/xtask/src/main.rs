@@ -169,27 +169,62 @@ fn demo(rest: &[String]) -> Result<()> {
 
 fn test(rest: &[String]) -> Result<()> {
     let t0 = std::time::Instant::now();
-    // Formatting and lints first: they fail fast and cost one check build. A toolchain without the
-    // rustfmt/clippy components gets them from rustup when it can; otherwise they are skipped with a
-    // warning (the tests still run).
+    let mut phases: Vec<(&str, f64)> = Vec::new();
+    let mut lap = |name, since: &mut std::time::Instant| {
+        phases.push((name, since.elapsed().as_secs_f64()));
+        *since = std::time::Instant::now();
+    };
+    let mut since = std::time::Instant::now();
+    // Formatting first: it fails fast. A toolchain without the rustfmt/clippy components gets them from rustup
+    // when it can; otherwise they are skipped with a warning (the tests still run).
     if has_cargo_tool("fmt", "rustfmt") {
         let mut fmt = cargo();
         fmt.args(["fmt", "--all", "--", "--check"]);
         run(fmt).context("code is not formatted: run `cargo fmt --all`")?;
     }
-    if has_cargo_tool("clippy", "clippy") {
-        let mut clippy = cargo();
-        clippy.args(["clippy", "--quiet", "--workspace", "--all-targets", "--", "-D", "warnings"]);
-        run(clippy).context("clippy found warnings")?;
-    }
+    lap("fmt", &mut since);
+    // The lints ride along with the test build: clippy-driver stands in for rustc on the workspace's own crates
+    // (RUSTC_WORKSPACE_WRAPPER, what `cargo clippy` itself sets), with warnings as errors. The dependencies are
+    // then compiled once, for the tests, instead of a second time in check mode for a separate `cargo clippy`
+    // (docs/suite-time.md). Both commands below get the same environment, so the second builds nothing.
+    let lints = clippy_driver();
+    let with_env = |c: &mut Command| {
+        c.env("ENGINE_VALIDATION", "1");
+        if let Some(driver) = &lints {
+            c.env("RUSTC_WORKSPACE_WRAPPER", driver)
+                .env("CLIPPY_ARGS", "-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__");
+        }
+    };
+    let mut build = cargo();
+    with_env(&mut build);
+    build.args(["test", "--workspace", "--all-targets", "--no-run"]).args(rest);
+    run(build).context(if lints.is_some() { "the build or clippy failed" } else { "the build failed" })?;
+    lap("build and lints", &mut since);
     // Validation layers required in every GPU test; any validation error fails teardown.
     let mut c = cargo();
-    c.env("ENGINE_VALIDATION", "1");
+    with_env(&mut c);
     // xtask's own tests (tools/xtask/tests: --help) are part of the suite.
     c.args(["test", "--workspace"]).args(rest);
     run(c)?;
-    eprintln!("xtask: all tests passed in {:.0} s", t0.elapsed().as_secs_f64());
+    lap("tests", &mut since);
+    let table: Vec<String> = phases.iter().map(|(n, s)| format!("{n} {s:.0} s")).collect();
+    eprintln!("xtask: all tests passed in {:.0} s ({})", t0.elapsed().as_secs_f64(), table.join(", "));
     Ok(())
+}
+
+/// The clippy driver to wrap the workspace's crates with, when the clippy component is there (installed by
+/// rustup once if missing): rustup's path of it, else `clippy-driver` on the PATH.
+fn clippy_driver() -> Option<PathBuf> {
+    if !has_cargo_tool("clippy", "clippy") {
+        return None;
+    }
+    let by_rustup = Command::new("rustup")
+        .args(["which", "clippy-driver"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
+    Some(by_rustup.unwrap_or_else(|| PathBuf::from("clippy-driver")))
 }
 
 /// Whether `cargo <sub>` works, installing the rustup component once if it is missing.
