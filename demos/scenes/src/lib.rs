@@ -213,6 +213,7 @@ pub mod chess;
 pub mod cloth;
 pub mod furnace;
 pub mod lamp;
+pub mod limits;
 pub mod shapes;
 pub mod sheet;
 pub mod sphere;
