@@ -219,7 +219,8 @@ fn every_option_refuses_what_its_scene_key_refuses() {
 fn the_manual_lists_every_range() {
     let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/scene-files.md")).unwrap();
     for r in RANGES.iter().filter(|r| !r.key.is_empty()) {
-        let row = format!("| `{}` | {} | {} |", r.key, r.option.map(|o| format!("`{o}`")).unwrap_or_default(), r.bounds());
+        let row =
+            format!("| `{}` | {} | {} |", r.key, r.option.map(|o| format!("`{o}`")).unwrap_or_default(), r.bounds());
         assert!(doc.contains(&row), "docs/scene-files.md lacks the row {row}");
     }
 }
