@@ -121,6 +121,19 @@ pub const RANGES: &[Range] = &[
     EXPOSURE,
 ];
 
+/// A value as the file wrote it: a scene file's numbers are f32, so an f32 prints as f32 (`1e38`, not the 38
+/// digits of its f64 widening).
+fn shown(x: f64) -> String {
+    let f = x as f32;
+    if f as f64 == x && f.is_finite() && f != 0.0 && (f.abs() >= 1e6 || f.abs() < 1e-3) {
+        format!("{f:e}")
+    } else if f as f64 == x {
+        format!("{f}")
+    } else {
+        number(x)
+    }
+}
+
 /// A bound as people write it: `100000`, `0.001`, but `1e6` and `1e-6`.
 fn number(x: f64) -> String {
     if x != 0.0 && (x.abs() >= 1e6 || x.abs() < 1e-3) {
@@ -155,7 +168,7 @@ impl Range {
         if self.contains(x) {
             Ok(x)
         } else {
-            Err(format!("{x} is not {} in {}", self.what, self.bounds()))
+            Err(format!("{} is not {} in {}", shown(x), self.what, self.bounds()))
         }
     }
 
