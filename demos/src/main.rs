@@ -2,10 +2,10 @@
 
 use anyhow::Context;
 use clap::Parser;
-use scenes::limits;
 use engine::gpu::{Gpu, GpuDesc};
 use engine::io::excerpt;
 use engine::renderer::{RenderSettings, Renderer};
+use scenes::limits;
 use std::path::{Path, PathBuf};
 
 /// The most samples per pixel `--spp` accepts: 1024 frames of [`SPP_PER_FRAME`]. Measured on lavapipe (2 cores), a

@@ -1,13 +1,13 @@
 //! Issue 48, defect 4: every numeric scene-file key has the range of its command-line twin, from one table
-//! (`demos::scenes::limits`). A scene file's `environment.rotation = -9223372036854775808` was accepted (and
+//! (`scenes::limits`). A scene file's `environment.rotation = -9223372036854775808` was accepted (and
 //! turned the map) while `--env-rotation` refused it.
 //!
 //! The test walks the table: for every scene-file key, values just outside its range and at f32's limits are
 //! refused by the scene-file parser with an error naming the key, and its bounds themselves (where they belong to
 //! the range) are accepted; for every key with an option, the option refuses the same values (`demo`, no GPU).
 
-use demos::scenes::limits::{Range, RANGES};
-use demos::scenes::user::{scene_file, UserOptions};
+use scenes::limits::{Range, RANGES};
+use scenes::user::{scene_file, UserOptions};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -160,7 +160,7 @@ fn build(dir: &Path, key: &str, value: &str) -> Result<(), String> {
     let p = dir.join("s.toml");
     std::fs::write(&p, scene_text(key, value)).unwrap();
     let opts = UserOptions { cache: Some(dir.join("cache")), ..Default::default() };
-    let assets = demos::assets_dir();
+    let assets = scenes::assets_dir();
     scene_file(&p, None, &assets, &opts).map(|_| ()).map_err(|e| format!("{e:#}"))
 }
 

@@ -1,5 +1,5 @@
 //! The range of every number a user gives, in one table shared by the command line (`demo`'s options) and the
-//! scene files (`--scene FILE.toml`, [`crate::user`]): a value one of them refuses, the other refuses too, with the
+//! scene files (`--scene FILE.toml`, `crate::user`): a value one of them refuses, the other refuses too, with the
 //! same range in the message. A scene file's `environment.rotation = -9223372036854775808` was accepted (and
 //! turned the map) while `--env-rotation` refused it.
 //!
@@ -70,8 +70,7 @@ pub const ENV_LIGHT_SHARE: Range =
     open_lo("environment.light_share", Some("--env-light-share"), 0.0, 100.0, "a percentage");
 pub const ENV_LIGHT_RADIUS: Range =
     open_lo("environment.light_radius", Some("--env-light-radius"), 0.0, 90.0, "an angle in degrees");
-pub const GROUND_SUBDIVISIONS: Range =
-    count("ground.subdivisions", None, 1.0, crate::user::MAX_GROUND_SUBDIVISIONS as f64, "a number of quads per side");
+pub const GROUND_SUBDIVISIONS: Range = count("ground.subdivisions", None, 1.0, 512.0, "a number of quads per side");
 pub const LIGHT_CENTER: Range = closed("light.center", None, -MAX_COORDINATE, MAX_COORDINATE, "a coordinate");
 pub const LIGHT_RADIUS: Range = open_lo("light.radius", None, 0.0, MAX_COORDINATE, "a radius");
 pub const LIGHT_RADIANCE: Range = closed("light.radiance", None, 0.0, MAX_RADIANCE as f64, "a radiance");

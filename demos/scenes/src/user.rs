@@ -221,7 +221,7 @@ impl Ground {
 /// Quads per side of a scene's ground unless its file says otherwise.
 pub const DEFAULT_GROUND_SUBDIVISIONS: u32 = 16;
 /// The most quads per side of a ground (513² vertices).
-pub const MAX_GROUND_SUBDIVISIONS: u32 = 512;
+pub const MAX_GROUND_SUBDIVISIONS: u32 = limits::GROUND_SUBDIVISIONS.hi as u32;
 /// Palette levels of a material map unless its file says otherwise.
 pub const DEFAULT_MAP_LEVELS: u32 = 32;
 
