@@ -5,6 +5,7 @@ use clap::Parser;
 use engine::gpu::{Gpu, GpuDesc};
 use engine::io::excerpt;
 use engine::renderer::{RenderSettings, Renderer};
+use scenes::limits;
 use std::path::{Path, PathBuf};
 
 /// The most samples per pixel `--spp` accepts: 1024 frames of [`SPP_PER_FRAME`]. Measured on lavapipe (2 cores), a
@@ -14,13 +15,6 @@ use std::path::{Path, PathBuf};
 const MAX_SPP: u32 = 1 << 16;
 /// The most samples one reference frame adds (one submission; keeps each frame's GPU time bounded).
 const SPP_PER_FRAME: u32 = 64;
-/// Largest `--exposure`: beyond it a tone-mapped image is white wherever anything is lit.
-const MAX_EXPOSURE: f32 = 1e6;
-/// Smallest `--exposure`: below it every radiance the renderer meets maps to black (1e-45 was taken, a denormal).
-const MIN_EXPOSURE: f32 = 1e-6;
-/// Largest `--env-rotation` (degrees) and `--env-spin` (degrees per second) in magnitude: f32 still resolves the
-/// angle to 0.01° there (1e38 was taken, an angle with no digits left below 10³¹).
-const MAX_DEGREES: f32 = 1e5;
 /// The longest `--name`: the file name `<name>.exr` must fit the file system's 255 bytes.
 const MAX_NAME_BYTES: usize = 255 - ".exr".len();
 /// A long run reports progress on stderr this often (seconds; `DEMO_PROGRESS_S` overrides, 0: every frame).
@@ -37,7 +31,8 @@ struct Args {
     scene: String,
     /// File scenes: blocker spheres fitted per mesh (0: none; a scene file's `spheres` key wins) [default: 32].
     /// Fits are cached by mesh content in $SOFTSHADOWS_SPHERE_CACHE (default ~/.cache/softshadows/spheres).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(0..=limits::MODEL_SPHERES.hi as i64))]
     spheres: Option<u32>,
     /// File scenes with --animate: play only the animation clip NAME (default: every clip in turn).
     #[arg(long, value_name = "NAME", requires = "animate")]
@@ -70,7 +65,7 @@ struct Args {
     /// on top of --env-rotation; the viewer follows its clock): the chess scene's rotating environment (ISG
     /// Fig. 7). Each frame rebuilds the environment's maps and prepares the technique again (as the viewer's E
     /// key: ~0.7 s at 32×24 on lavapipe), so it is an event per frame, not a shader rotation.
-    #[arg(long, value_name = "DEG", value_parser = parse_rotation, allow_negative_numbers = true)]
+    #[arg(long, value_name = "DEG", value_parser = parse_spin, allow_negative_numbers = true)]
     env_spin: Option<f32>,
     /// Exposure multiplier before tone mapping (a number in [1e-6, 1e6]).
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure, allow_negative_numbers = true)]
@@ -137,24 +132,23 @@ struct Args {
 }
 
 /// `--exposure`: in [1e-6, 1e6] (NaN, infinities, zero and negative values give a black or undefined image; a
-/// denormal a black one).
+/// denormal a black one). The range is the shared table's (`scenes::limits`).
 fn parse_exposure(s: &str) -> Result<f32, String> {
-    let x: f32 = s.trim().parse().map_err(|_| format!("'{}' is not a number", excerpt(s)))?;
-    if x.is_finite() && (MIN_EXPOSURE..=MAX_EXPOSURE).contains(&x) {
-        Ok(x)
-    } else {
-        Err(format!(
-            "{x:e} is not in [{MIN_EXPOSURE:e}, {MAX_EXPOSURE:e}]: the exposure multiplies the radiance before tone mapping"
-        ))
-    }
+    limits::EXPOSURE
+        .parse(s)
+        .map(|x| x as f32)
+        .map_err(|m| format!("{m}: the exposure multiplies the radiance before tone mapping"))
 }
 
-/// `--env-rotation` (degrees) and `--env-spin` (degrees per second): finite, within ±[`MAX_DEGREES`].
+/// `--env-rotation` (degrees): finite, within ±100000, the range of a scene file's `environment.rotation`
+/// (`scenes::limits`).
 fn parse_rotation(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(x) if x.is_finite() && x.abs() <= MAX_DEGREES => Ok(x),
-        _ => Err(format!("'{}' is not a finite number of degrees in [-{MAX_DEGREES}, {MAX_DEGREES}]", excerpt(s))),
-    }
+    limits::ENV_ROTATION.parse(s).map(|x| x as f32)
+}
+
+/// `--env-spin` (degrees per second): finite, within ±100000 (`scenes::limits`).
+fn parse_spin(s: &str) -> Result<f32, String> {
+    limits::ENV_SPIN.parse(s).map(|x| x as f32)
 }
 
 /// `--name`: a file stem inside `--out`, never a path that leaves it or names the folder itself, and short enough

@@ -227,17 +227,19 @@ fn malformed_gltf_is_an_error_naming_the_file() {
 }
 
 /// An external buffer must be a regular file at least `byteLength` long: a `uri` of `/dev/zero` used to be read
-/// without end (the decoder reads the named file whole).
+/// without end (the decoder reads the named file whole). (Absolute paths are refused outright now:
+/// `model_files_name_only_files_in_their_folder`.)
 #[test]
 fn gltf_external_buffers_must_be_regular_files_of_their_length() {
     let good = String::from_utf8(gltf(r#"[ { "mesh": 0 } ]"#, &good_accessor(), 0)).unwrap();
     let start = good.find("\"uri\": \"data:").unwrap() + "\"uri\": \"".len();
     let end = start + good[start..].find('"').unwrap();
     let short = tmp("short-buffer.bin", &[0u8; 12]);
+    std::fs::create_dir_all(short.with_file_name("a-folder.bin")).unwrap();
     for (name, uri, what) in [
-        ("dev-zero", "/dev/zero".to_string(), "not a regular file"),
-        ("dir", std::env::temp_dir().display().to_string(), "not a regular file"),
-        ("short", short.display().to_string(), "byteLength"),
+        ("dev-zero", "/dev/zero", "is an absolute path"),
+        ("dir", "a-folder.bin", "not a regular file"),
+        ("short", "short-buffer.bin", "byteLength"),
     ] {
         let text = format!("{}{}{}", &good[..start], uri, &good[end..]);
         let p = tmp(&format!("external-{name}.gltf"), text.as_bytes());
@@ -245,6 +247,156 @@ fn gltf_external_buffers_must_be_regular_files_of_their_length() {
         eprintln!("{name}: {err}");
         assert_err_names(&err, &p, what);
     }
+}
+
+/// Issue 48, defect 1: a model names files only inside its own folder. A buffer URI of `../../../../etc/passwd`
+/// made the loader read /etc/passwd as index data. Refused, with one line naming the model and the URI: `..` out
+/// of the folder, an absolute path, a symbolic link out, a `file:` URI — for a glTF's buffers and images, an OBJ's
+/// `mtllib` and a `.mtl`'s texture maps. Data URIs and files inside the folder (through links that stay inside)
+/// still load.
+#[test]
+fn model_files_name_only_files_in_their_folder() {
+    use engine::scene::load_obj_with_materials;
+    let root = std::env::temp_dir().join(format!("hostile-input-folder-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let model = root.join("model");
+    std::fs::create_dir_all(model.join("sub")).unwrap();
+    // A file outside the model's folder that parses as a buffer, a .mtl and a texture: if the loader reads it,
+    // the model loads (the old behaviour), so the test cannot pass by the file being unusable.
+    let good = String::from_utf8(gltf(r#"[ { "mesh": 0 } ]"#, &good_accessor(), 0)).unwrap();
+    let start = good.find("\"uri\": \"data:").unwrap() + "\"uri\": \"".len();
+    let end = start + good[start..].find('"').unwrap();
+    let data_uri = &good[start..end];
+    let buffer = base64::decode(&data_uri[data_uri.find(',').unwrap() + 1..]).unwrap();
+    std::fs::write(root.join("outside.bin"), &buffer).unwrap();
+    std::fs::write(root.join("outside.mtl"), "newmtl a\nKd 1 0 0\n").unwrap();
+    std::fs::write(model.join("sub/inside.bin"), &buffer).unwrap();
+    std::fs::write(model.join("inside.mtl"), "newmtl a\nKd 1 0 0\nmap_Kd sub/wood.png\n").unwrap();
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(root.join("outside.bin"), model.join("link-out.bin")).unwrap();
+        std::os::unix::fs::symlink(root.join("outside.mtl"), model.join("link-out.mtl")).unwrap();
+        std::os::unix::fs::symlink(&root, model.join("up")).unwrap();
+        std::os::unix::fs::symlink(model.join("sub/inside.bin"), model.join("link-in.bin")).unwrap();
+    }
+    let outside = root.join("outside.bin").display().to_string();
+    let gltf_with = |name: &str, uri: &str, images: &str| {
+        let text = format!("{}{}{}", &good[..start], uri, &good[end..]);
+        let text = text.replacen("\"asset\"", &format!("{images}\"asset\""), 1);
+        let p = model.join(format!("{name}.gltf"));
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    // Inside: a data URI, a relative file, a link that stays inside, a percent-encoded relative name.
+    let ok_image = r#""images": [ { "uri": "sub/wood%20grain.png" } ], "#;
+    for (name, uri) in
+        [("data", data_uri), ("inside", "sub/inside.bin"), ("link-in", "link-in.bin"), ("encoded", "sub/inside%2Ebin")]
+    {
+        let p = gltf_with(name, uri, ok_image);
+        load_gltf(&p, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    let file_uri = format!("file://{outside}");
+    let mut cases: Vec<(&str, String, &str)> = vec![
+        ("traversal", "../outside.bin".into(), "leads out of the model's folder with '..'"),
+        ("deep-traversal", "../../../../etc/passwd".into(), "with '..'"),
+        ("encoded-traversal", "%2E%2E/outside.bin".into(), "with '..'"),
+        ("absolute", outside.clone(), "is an absolute path"),
+        ("file-uri", file_uri.clone(), "is a file: URI"),
+        ("other-scheme", "https://example.com/x.bin".into(), "unsupported scheme"),
+    ];
+    if cfg!(unix) {
+        cases.push(("link-out", "link-out.bin".into(), "through a symbolic link"));
+        cases.push(("dir-link-out", "up/outside.bin".into(), "through a symbolic link"));
+    }
+    for (name, uri, what) in &cases {
+        let p = gltf_with(name, uri, "");
+        let err = quick(name, || load_gltf(&p, 0)).unwrap_err().to_string();
+        eprintln!("{name}: {err}");
+        assert_err_names(&err, &p, what);
+        assert!(err.contains(&format!("buffer 0: URI {}", engine::io::quote(uri))), "{name}: {err}");
+        assert!(err.contains("inside its own folder") && !err.contains('\n'), "{name}: {err}");
+    }
+    // Images obey the rule too (they are not read: the renderer has no textures yet).
+    let p = gltf_with("image-out", data_uri, r#""images": [ { "uri": "../outside.png" } ], "#);
+    assert_err_names(load_gltf(&p, 0).unwrap_err(), &p, "image 0: URI \"../outside.png\" leads out");
+
+    // OBJ: the .mtl library and its texture maps.
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
+    let obj_with = |name: &str, mtllib: &str| {
+        let p = model.join(format!("{name}.obj"));
+        std::fs::write(&p, format!("mtllib {mtllib}\n{tri}")).unwrap();
+        p
+    };
+    let (_, materials) = load_obj_with_materials(&obj_with("inside", "inside.mtl")).unwrap();
+    assert!((materials[0].diffuse.x - 1.0).abs() < 1e-6, "{materials:?}");
+    let mut cases: Vec<(&str, String, &str)> = vec![
+        ("traversal", "../outside.mtl".into(), "with '..'"),
+        ("absolute", root.join("outside.mtl").display().to_string(), "is an absolute path"),
+        ("file-uri", format!("file:{}", root.join("outside.mtl").display()), "is a file: URI"),
+    ];
+    if cfg!(unix) {
+        cases.push(("link-out", "link-out.mtl".into(), "through a symbolic link"));
+    }
+    for (name, mtllib, what) in &cases {
+        let p = obj_with(&format!("mtl-{name}"), mtllib);
+        let err = load_obj_with_materials(&p).unwrap_err().to_string();
+        eprintln!("mtl-{name}: {err}");
+        assert_err_names(&err, &p, what);
+        assert!(err.contains(&format!("mtllib {}", engine::io::quote(mtllib))), "{err}");
+    }
+    for (name, map, what) in [
+        ("traversal", "../outside.png", "with '..'"),
+        ("absolute", "/etc/passwd", "is an absolute path"),
+        ("options", "-s 1 1 1 ../../outside.png", "with '..'"),
+        ("drive", "C:\\textures\\wood.png", "drive letter"),
+    ] {
+        let mtl = model.join(format!("tex-{name}.mtl"));
+        std::fs::write(&mtl, format!("newmtl a\nKd 1 0 0\nmap_Kd {map}\n")).unwrap();
+        let p = obj_with(&format!("tex-{name}"), &format!("tex-{name}.mtl"));
+        let err = load_obj_with_materials(&p).unwrap_err().to_string();
+        eprintln!("tex-{name}: {err}");
+        assert_err_names(&err, &mtl, what);
+        assert!(err.contains("line 3: `map_Kd` texture"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Issue 48, defect 2: no loader error carries a control character from the file (a mutated .hdr's FORMAT line
+/// put NUL, ^B, ^P, ^\\ and DEL on the terminal; an escape sequence would have been obeyed): text quoted from
+/// input is escaped as `{:?}` writes it and cut short.
+#[test]
+fn errors_never_carry_control_characters_from_the_input() {
+    const HOSTILE: &str = "\u{0}\u{2}\u{10}\u{1c}\u{7f}\u{1b}[2J\u{1b}]0;owned\u{7}\r\u{9b}31m\u{202e}";
+    let clean = |what: &str, e: &str| {
+        assert!(!e.chars().any(|c| (c.is_control() && c != '\n') || c == '\u{202e}'), "{what}: {e:?}");
+        assert!(e.contains("\\u{1b}"), "{what}: the escape is not shown escaped: {e}");
+    };
+    let hdr = |format: &str, res: &str| format!("#?RADIANCE\nFORMAT={format}\n\n{res}\n").into_bytes();
+    let p = tmp("control-format.hdr", &hdr(&format!("32-bi{HOSTILE}"), "-Y 1 +X 2"));
+    let e = load_environment(&p).unwrap_err().to_string();
+    assert!(e.contains("unsupported FORMAT \"32-bi\\0\\u{2}"), "{e}");
+    clean("hdr FORMAT", &e);
+    let p = tmp("control-orientation.hdr", &hdr("32-bit_rle_rgbe", &format!("-Y 1 +X 2{HOSTILE}")));
+    clean("hdr orientation", &load_environment(&p).unwrap_err().to_string());
+    // An .mtl value, an OBJ's mtllib name, a glTF buffer URI.
+    let dir = tmp("control.obj", b"").parent().unwrap().to_path_buf();
+    std::fs::write(dir.join("control.mtl"), format!("newmtl a\nKd 1 {HOSTILE} 0\n")).unwrap();
+    let p = tmp("control.obj", b"mtllib control.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+    clean("mtl value", &engine::scene::load_obj_with_materials(&p).unwrap_err().to_string());
+    let p = tmp("control-lib.obj", format!("mtllib ../{HOSTILE}.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").as_bytes());
+    clean("mtllib", &engine::scene::load_obj_with_materials(&p).unwrap_err().to_string());
+    let good = String::from_utf8(gltf(r#"[ { "mesh": 0 } ]"#, &good_accessor(), 0)).unwrap();
+    let start = good.find("\"uri\": \"data:").unwrap() + "\"uri\": \"".len();
+    let end = start + good[start..].find('"').unwrap();
+    let escaped_json: String = HOSTILE.chars().map(|c| format!("\\u{:04x}", c as u32)).collect();
+    let text = format!("{}../{escaped_json}{}", &good[..start], &good[end..]);
+    let p = tmp("control-uri.gltf", text.as_bytes());
+    clean("glTF URI", &load_gltf(&p, 0).unwrap_err().to_string());
+    // A mesh named by the file: its name is printed in progress lines and warnings.
+    let named = good.replacen("\"primitives\"", &format!("\"name\": \"{escaped_json}\", \"primitives\""), 1);
+    let p = tmp("control-name.gltf", named.as_bytes());
+    let g = load_gltf(&p, 0).unwrap();
+    clean("glTF mesh name", &g.meshes[0].name);
 }
 
 /// Bad plane blockers are errors naming the plane or the mesh, at scene upload (`gather_planes`), before

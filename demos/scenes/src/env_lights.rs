@@ -2,7 +2,8 @@
 //! decomposition ([`EnvLightArgs`], shared by `demo` and `compare`), and the preview picture of the lights over
 //! the map (`demo --env-lights-preview`).
 
-use engine::math::env_lights::{EnvDecomposition, EnvLightParams, MAX_ENV_LIGHTS};
+use crate::limits;
+use engine::math::env_lights::{EnvDecomposition, EnvLightParams};
 use engine::math::envmap::{latlong_uv, LatLongMap};
 use engine::scene::Scene;
 use std::path::Path;
@@ -13,7 +14,7 @@ use std::path::Path;
 pub struct EnvLightArgs {
     /// Environment lights: at most K of the environment's bright regions become spherical lights (0: none) for
     /// the techniques run with `env_lights=on` [default: the scene's, else 8].
-    #[arg(long, value_name = "K", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..=MAX_ENV_LIGHTS as i64))]
+    #[arg(long, value_name = "K", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..=limits::ENV_LIGHTS.hi as i64))]
     pub env_lights: Option<u32>,
     /// A texel is bright above this many times the environment's mean radiance, in (1, 1e6] [default: 4].
     #[arg(long, value_name = "X", allow_negative_numbers = true, value_parser = parse_threshold)]
@@ -27,23 +28,17 @@ pub struct EnvLightArgs {
     pub env_light_radius: Option<f64>,
 }
 
-fn parse_in(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
-    match s.trim().parse::<f64>() {
-        Ok(x) if x.is_finite() && x > lo && x <= hi => Ok(x),
-        _ => Err(format!("'{s}' is not {what} in ({lo}, {hi}]")),
-    }
-}
-
+// The ranges are the shared table's (`crate::limits`): a scene file's `[environment]` keys have the same.
 fn parse_threshold(s: &str) -> Result<f64, String> {
-    parse_in(s, 1.0, 1e6, "a multiple of the mean radiance")
+    limits::ENV_LIGHT_THRESHOLD.parse(s)
 }
 
 fn parse_share(s: &str) -> Result<f64, String> {
-    parse_in(s, 0.0, 100.0, "a percentage")
+    limits::ENV_LIGHT_SHARE.parse(s)
 }
 
 fn parse_radius(s: &str) -> Result<f64, String> {
-    parse_in(s, 0.0, 90.0, "an angle in degrees")
+    limits::ENV_LIGHT_RADIUS.parse(s)
 }
 
 impl EnvLightArgs {

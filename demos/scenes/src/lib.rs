@@ -92,8 +92,17 @@ pub fn assets_dir() -> PathBuf {
 /// Install the logger of a binary: `RUST_LOG` as `env_logger` reads it, warnings and errors when it is unset
 /// (the engine reports dropped triangles, recomputed normals, missing materials and the validation-layer
 /// fallback as warnings). Every binary of the workspace whose code can log calls this first (demos/tests/logging.rs checks it).
+///
+/// A line may quote input (a mesh or material name from a file): it is written as `engine::io::shorten` writes
+/// messages, control characters escaped, so that no file can send escape sequences to the terminal.
 pub fn init_logging() {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    use std::io::Write;
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+        .format(|buf, record| {
+            let message = engine::io::shorten(&record.args().to_string());
+            writeln!(buf, "[{} {:5} {}] {message}", buf.timestamp(), record.level(), record.target())
+        })
+        .init();
 }
 
 /// The binaries' `main`: print the error with its causes as `error: …` and exit with status 1. Input quoted in
@@ -204,6 +213,7 @@ pub mod chess;
 pub mod cloth;
 pub mod furnace;
 pub mod lamp;
+pub mod limits;
 pub mod shapes;
 pub mod sheet;
 pub mod sphere;

@@ -7,11 +7,12 @@
 //!   the line and the key): models with transforms and materials, environment (with rotation about +y), spherical
 //!   lights, camera, ground, clips and blockers (a count to fit, sphere files, or none).
 
+use super::limits;
 use super::{shapes, Pose};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use engine::blockers::fit::FitSettings;
 use engine::blockers::Sphere;
-use engine::math::env_lights::{EnvLightParams, MAX_ENV_LIGHTS};
+use engine::math::env_lights::EnvLightParams;
 use engine::math::envmap::LatLongMap;
 use engine::scene::material_map::{MaterialMap, MaterialMapping};
 use engine::scene::{load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight};
@@ -220,7 +221,7 @@ impl Ground {
 /// Quads per side of a scene's ground unless its file says otherwise.
 pub const DEFAULT_GROUND_SUBDIVISIONS: u32 = 16;
 /// The most quads per side of a ground (513² vertices).
-pub const MAX_GROUND_SUBDIVISIONS: u32 = 512;
+pub const MAX_GROUND_SUBDIVISIONS: u32 = limits::GROUND_SUBDIVISIONS.hi as u32;
 /// Palette levels of a material map unless its file says otherwise.
 pub const DEFAULT_MAP_LEVELS: u32 = 32;
 
@@ -369,12 +370,28 @@ fn spheres_of(
             let dir = opts.cache.clone().unwrap_or_else(cache_dir);
             let name = mesh.name.clone();
             let mut announced = false;
+            let t0 = std::time::Instant::now();
             let cached = engine::scene::blockers::cached_spheres(mesh, &settings, &dir, &mut |p| {
                 if !announced {
-                    eprintln!("fitting blocker spheres to '{name}' of {} (cached after)...", file.display());
+                    eprintln!(
+                        "fitting {} blocker spheres to '{name}' of {} ({} triangles; at most {} iterations, each \
+                         clustering every sample point and moving every sphere: cached after)...",
+                        settings.count,
+                        file.display(),
+                        mesh.triangle_count(),
+                        settings.max_iterations
+                    );
                     announced = true;
                 }
-                eprintln!("  iteration {:>3}: outside volume {:.4e} {}", p.iteration, p.outside_sum, p.message);
+                let at = t0.elapsed().as_secs_f64();
+                if p.setup {
+                    eprintln!("  {at:6.1} s  {}", p.message);
+                } else {
+                    eprintln!(
+                        "  {at:6.1} s  iteration {:>3}: outside volume {:.4e} {}",
+                        p.iteration, p.outside_sum, p.message
+                    );
+                }
             })
             .with_context(|| format!("{}: fitting {n} blocker spheres to mesh '{name}' (--spheres)", file.display()))?;
             if let Some((asked, (surface, interior))) = cached.capped {
@@ -498,29 +515,28 @@ pub enum LightsKey {
 
 impl EnvironmentSpec {
     /// The decomposition's parameters from the keys given (the defaults for the others), each range-checked.
+    /// The ranges are those of the `--env-light*` options (one table: [`limits`]).
     pub fn env_lights(&self) -> Result<EnvLightParams> {
         let mut p = EnvLightParams::default();
         match self.lights {
             None | Some(LightsKey::On(true)) => {}
             Some(LightsKey::On(false)) => p.max_lights = 0,
             Some(LightsKey::Count(k)) => {
-                ensure!(
-                    (0..=MAX_ENV_LIGHTS as i64).contains(&k),
-                    "environment.lights: {k} is not in 0..={MAX_ENV_LIGHTS} (or true/false)"
-                );
+                let r = &limits::ENV_LIGHTS;
+                r.check(k as f64).map_err(|m| anyhow!("{}: {m} (or true/false)", r.key))?;
                 p.max_lights = k as usize;
             }
         }
         if let Some(t) = self.light_threshold {
-            ensure!(t.is_finite() && t > 1.0 && t <= 1e6, "environment.light_threshold: {t} is not in (1, 1e6]");
+            limits::ENV_LIGHT_THRESHOLD.check_key(limits::ENV_LIGHT_THRESHOLD.key, &[t])?;
             p.threshold = t;
         }
         if let Some(s) = self.light_share {
-            ensure!(s.is_finite() && s > 0.0 && s <= 100.0, "environment.light_share: {s} % is not in (0, 100]");
+            limits::ENV_LIGHT_SHARE.check_key(limits::ENV_LIGHT_SHARE.key, &[s])?;
             p.min_share = s / 100.0;
         }
         if let Some(r) = self.light_radius {
-            ensure!(r.is_finite() && r > 0.0 && r <= 90.0, "environment.light_radius: {r}° is not in (0, 90]");
+            limits::ENV_LIGHT_RADIUS.check_key(limits::ENV_LIGHT_RADIUS.key, &[r])?;
             p.max_radius = r.to_radians();
         }
         p.check().map_err(|e| anyhow!("environment: {e}"))?;
@@ -534,8 +550,8 @@ pub struct GroundSpec {
     #[serde(default = "yes")]
     pub visible: bool,
     pub material: Option<MaterialSpec>,
-    /// Quads per side (default 16, at most 512).
-    pub subdivisions: Option<u32>,
+    /// Quads per side (default 16, at most 512). Signed, so that a negative value gets the range's message.
+    pub subdivisions: Option<i64>,
     pub material_map: Option<MaterialMapSpec>,
 }
 
@@ -548,7 +564,7 @@ pub struct MaterialMapSpec {
     /// An 8-bit PNG, relative to the scene file.
     pub file: String,
     pub material: MaterialSpec,
-    pub levels: Option<u32>,
+    pub levels: Option<i64>,
 }
 
 fn yes() -> bool {
@@ -588,8 +604,9 @@ pub struct ModelSpec {
     pub material: Option<MaterialSpec>,
     /// Blends `material` spatially across each mesh (projected from above onto the mesh's x–z bounds).
     pub material_map: Option<MaterialMapSpec>,
-    /// Blocker spheres fitted per mesh (0: none).
-    pub spheres: Option<usize>,
+    /// Blocker spheres fitted per mesh (0: none; the range of `--spheres`). Signed, so that a negative value
+    /// gets the range's message.
+    pub spheres: Option<i64>,
     /// Sphere files, one per mesh, relative to the scene file (instead of `spheres`).
     pub sphere_files: Option<Vec<String>>,
     /// The clip to play (`"all"`: every clip in turn, the default; `"none"`: stay at rest).
@@ -605,12 +622,9 @@ impl MaterialMapSpec {
     fn build(&self, base: Option<&Material>, key: &str, rel: &dyn Fn(&str) -> PathBuf) -> Result<MaterialMapping> {
         let base = base.ok_or_else(|| anyhow!("{key}.material_map needs {key}.material (its t = 0 end)"))?;
         let b = self.material.build_from(*base, &format!("{key}.material_map.material"))?;
-        let levels = self.levels.unwrap_or(DEFAULT_MAP_LEVELS);
-        ensure!(
-            (2..=engine::scene::material_map::MAX_LEVELS).contains(&levels),
-            "{key}.material_map.levels: {levels} is not in 2..={}",
-            engine::scene::material_map::MAX_LEVELS
-        );
+        let levels = self.levels.unwrap_or(DEFAULT_MAP_LEVELS as i64);
+        limits::MAP_LEVELS.check_key(&format!("{key}.material_map.levels"), &[levels as f64])?;
+        let levels = levels as u32;
         let map = MaterialMap::load(&rel(&self.file)).with_context(|| format!("{key}.material_map.file"))?;
         let mapping = MaterialMapping { map, b, levels };
         mapping.palette(base).map_err(|e| anyhow!("{key}.material_map: {e}"))?;
@@ -630,7 +644,7 @@ impl MaterialSpec {
         let finite = |what: &str, v: &[f32]| engine::scene::check_material_values(&format!("{key}.{what}"), v);
         let color = |v: [f32; 3], what: &str| -> Result<Vec3> {
             finite(what, &v).map_err(|e| anyhow!(e))?;
-            ensure!(v.iter().all(|c| (0.0..=1.0).contains(c)), "{key}.{what}: {v:?} is not in [0, 1]");
+            limits::COLOUR.check_key(&format!("{key}.{what}"), &v.map(f64::from))?;
             Ok(Vec3::from(v))
         };
         if let Some(d) = self.diffuse {
@@ -641,7 +655,7 @@ impl MaterialSpec {
         }
         if let Some(s) = self.shininess {
             finite("shininess", &[s]).map_err(|e| anyhow!(e))?;
-            ensure!((1e-3..=1e6).contains(&s), "{key}.shininess: {s} is not in [0.001, 1e6]");
+            limits::SHININESS.check_key(&format!("{key}.shininess"), &[s as f64])?;
             m.shininess = s;
         }
         if let Some(b) = &self.brdf {
@@ -685,15 +699,16 @@ fn build_scene_file(
         let key = format!("model[{i}]");
         let file = rel(&m.file);
         let model = load_model(&file).with_context(|| format!("{key}.file"))?;
-        let finite = |v: [f32; 3], what: &str| -> Result<Vec3> {
-            ensure!(v.iter().all(|c| c.is_finite()), "{key}.{what}: {v:?} is not finite");
+        // The ranges of every numeric key: one table (limits), shared with the command line.
+        let ranged = |v: [f32; 3], range: &limits::Range, what: &str| -> Result<Vec3> {
+            range.check_key(&format!("{key}.{what}"), &v.map(f64::from))?;
             Ok(Vec3::from(v))
         };
-        let scale = finite(m.scale, "scale")?;
-        ensure!(scale.min_element() > 0.0, "{key}.scale: {:?} must be positive", m.scale);
-        let r = finite(m.rotation, "rotation")?;
+        let scale = ranged(m.scale, &limits::MODEL_SCALE, "scale")?;
+        let r = ranged(m.rotation, &limits::MODEL_ROTATION, "rotation")?;
         let rotation = Quat::from_euler(EulerRot::ZYX, r.z.to_radians(), r.y.to_radians(), r.x.to_radians());
-        let transform = Mat4::from_scale_rotation_translation(scale, rotation, finite(m.translation, "translation")?);
+        let translation = ranged(m.translation, &limits::MODEL_TRANSLATION, "translation")?;
+        let transform = Mat4::from_scale_rotation_translation(scale, rotation, translation);
         let material = m.material.as_ref().map(|s| s.build(&format!("{key}.material"))).transpose()?;
         let map = m.material_map.as_ref().map(|s| s.build(material.as_ref(), &key, &rel)).transpose()?;
         let blockers = match (&m.spheres, &m.sphere_files) {
@@ -708,8 +723,8 @@ fn build_scene_file(
                 Blockers::Files(files.iter().map(|f| rel(f)).collect())
             }
             (Some(n), None) => {
-                ensure!(*n <= 4096, "{key}.spheres: {n} is more than 4096");
-                Blockers::Fit(*n)
+                limits::MODEL_SPHERES.check_key(&format!("{key}.spheres"), &[*n as f64])?;
+                Blockers::Fit(*n as usize)
             }
             (None, None) => Blockers::Fit(opts.spheres.unwrap_or(DEFAULT_SPHERES)),
         };
@@ -732,7 +747,7 @@ fn build_scene_file(
     if let Some(e) = &spec.environment {
         env_lights = e.env_lights()?;
         if let Some(i) = e.intensity {
-            ensure!(i.is_finite() && i >= 0.0, "environment.intensity: {i} is not a finite number ≥ 0");
+            limits::ENV_INTENSITY.check_key(limits::ENV_INTENSITY.key, &[i as f64])?;
             intensity = i;
         }
         let file = env.map(Path::to_path_buf).or_else(|| e.file.as_deref().map(rel));
@@ -742,7 +757,7 @@ fn build_scene_file(
         };
         environment = Some(match e.rotation {
             Some(r) => {
-                ensure!(r.is_finite(), "environment.rotation: {r} is not finite");
+                limits::ENV_ROTATION.check_key(limits::ENV_ROTATION.key, &[r as f64])?;
                 rotate_environment(&map, r)
             }
             None => map,
@@ -752,19 +767,27 @@ fn build_scene_file(
         Some(e) => e,
         None => default_environment(env, assets)?,
     };
+    // The intensity times the map's brightest texel is the radiance shading meets: within what f32 carries.
+    let brightest = engine::scene::brightest_texel(&environment);
+    ensure!(
+        intensity as f64 * brightest as f64 <= engine::scene::MAX_RADIANCE as f64,
+        "environment.intensity: {intensity} × the map's brightest texel {brightest:e} = {:e}, more than the {:e} \
+         f32 shading carries",
+        intensity as f64 * brightest as f64,
+        engine::scene::MAX_RADIANCE
+    );
     let mut lights = Vec::new();
     for (i, l) in spec.light.iter().enumerate() {
-        let ok = l.center.iter().chain(&l.radiance).all(|c| c.is_finite())
-            && l.radius.is_finite()
-            && l.radius > 0.0
-            && l.radiance.iter().all(|c| *c >= 0.0);
-        ensure!(ok, "light[{i}]: the centre and radiance must be finite, the radiance ≥ 0 and the radius > 0");
+        limits::LIGHT_CENTER.check_key(&format!("light[{i}].center"), &l.center.map(f64::from))?;
+        limits::LIGHT_RADIUS.check_key(&format!("light[{i}].radius"), &[l.radius as f64])?;
+        limits::LIGHT_RADIANCE.check_key(&format!("light[{i}].radiance"), &l.radiance.map(f64::from))?;
         lights.push(SphereLight { center: l.center.into(), radius: l.radius, radiance: l.radiance.into() });
     }
     let camera = match &spec.camera {
         Some(c) => {
-            let ok = c.eye.iter().chain(&c.target).all(|x| x.is_finite()) && c.fov_y > 1.0 && c.fov_y < 179.0;
-            ensure!(ok, "camera: eye and target must be finite and fov_y in (1, 179) degrees");
+            limits::CAMERA_EYE.check_key("camera.eye", &c.eye.map(f64::from))?;
+            limits::CAMERA_TARGET.check_key("camera.target", &c.target.map(f64::from))?;
+            limits::CAMERA_FOV_Y.check_key("camera.fov_y", &[c.fov_y as f64])?;
             ensure!(Vec3::from(c.eye) != Vec3::from(c.target), "camera: eye and target are the same point");
             Some(Camera { eye: c.eye.into(), target: c.target.into(), fov_y_degrees: c.fov_y })
         }
@@ -777,11 +800,9 @@ fn build_scene_file(
                 Some(m) => m.build("ground.material")?,
                 None => Material::diffuse(Vec3::splat(0.6)),
             };
-            let subdivisions = g.subdivisions.unwrap_or(DEFAULT_GROUND_SUBDIVISIONS);
-            ensure!(
-                (1..=MAX_GROUND_SUBDIVISIONS).contains(&subdivisions),
-                "ground.subdivisions: {subdivisions} is not in 1..={MAX_GROUND_SUBDIVISIONS}"
-            );
+            let subdivisions = g.subdivisions.unwrap_or(DEFAULT_GROUND_SUBDIVISIONS as i64);
+            limits::GROUND_SUBDIVISIONS.check_key("ground.subdivisions", &[subdivisions as f64])?;
+            let subdivisions = subdivisions as u32;
             let map = g.material_map.as_ref().map(|s| s.build(Some(&material), "ground", &rel)).transpose()?;
             Some(Ground { material, subdivisions, map })
         }

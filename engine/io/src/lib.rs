@@ -17,11 +17,13 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+mod folder;
 mod quiet;
 mod text;
 
+pub use folder::ModelFolder;
 pub use quiet::{catch_quiet, contained_panics};
-pub use text::{excerpt, shorten, MAX_EXCERPT_CHARS, MAX_LINE_CHARS, MAX_WORD_CHARS};
+pub use text::{escape_controls, excerpt, quote, shorten, MAX_EXCERPT_CHARS, MAX_LINE_CHARS, MAX_WORD_CHARS};
 
 /// The largest file of one kind that is read, and what the kind is called in messages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,7 +80,7 @@ impl InputError {
         InputError::Refused { path: path.to_path_buf(), message: message.into() }
     }
 
-    fn io(path: &Path, e: std::io::Error) -> Self {
+    pub(crate) fn io(path: &Path, e: std::io::Error) -> Self {
         match e.kind() {
             std::io::ErrorKind::NotFound => InputError::NotFound { path: path.to_path_buf() },
             _ => Self::refused(path, format!("cannot read: {e}")),

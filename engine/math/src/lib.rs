@@ -19,3 +19,4 @@ pub mod shexp;
 pub mod sphere_light;
 pub mod table_gen;
 pub mod tables;
+pub mod tonemap;

@@ -144,6 +144,7 @@ impl GpuScene {
     }
 
     pub fn upload(gpu: &Gpu, scene: &Scene) -> Result<Self> {
+        crate::scene::check_radiance(scene).map_err(invalid_scene)?;
         let mut vertices = Vec::new();
         let mut indices = Vec::new();
         let mut objects = Vec::new();

@@ -259,7 +259,7 @@ fn load_hdr(path: &Path, data: &[u8]) -> Result<LatLongMap> {
         }
         if let Some(f) = l.strip_prefix("FORMAT=") {
             if f.trim() != "32-bit_rle_rgbe" {
-                return Err(bad(&format!("unsupported FORMAT {f}")));
+                return Err(bad(&format!("unsupported FORMAT {}", engine_io::quote(f))));
             }
         }
     }
@@ -269,7 +269,7 @@ fn load_hdr(path: &Path, data: &[u8]) -> Result<LatLongMap> {
         ["-Y", h, "+X", w] => {
             (h.parse::<usize>().map_err(|_| bad("bad height"))?, w.parse::<usize>().map_err(|_| bad("bad width"))?)
         }
-        _ => return Err(bad(&format!("unsupported orientation '{res}' (only -Y H +X W)"))),
+        _ => return Err(bad(&format!("unsupported orientation {} (only -Y H +X W)", engine_io::quote(&res)))),
     };
     check_size(w, h).map_err(|m| bad(&m))?;
     // The smallest encoding of a scanline: 4 run-length codes of at most 127 texels, 2 bytes each, per

@@ -9,7 +9,7 @@ use super::gltf_import::GltfScene;
 use super::{Material, Result, SceneError};
 use engine_io::excerpt;
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
@@ -25,7 +25,8 @@ pub struct Mesh {
 }
 
 impl Mesh {
-    /// Validate and repair (see the module doc). `origin` names the source in messages.
+    /// Validate and repair (see the module doc). `origin` names the source in messages; `name` is kept as
+    /// [`engine_io::excerpt`] writes it (control characters escaped, at most 80 characters).
     pub fn new(
         origin: &Path,
         name: &str,
@@ -79,7 +80,9 @@ impl Mesh {
             }
             None => compute_normals(&positions, &kept),
         };
-        Ok(Self { name: name.to_string(), positions, normals, indices: kept, material_offsets: Vec::new() })
+        // The name comes from the file (an OBJ's file stem and material names, a glTF mesh's name) and is printed
+        // in progress lines and messages: escaped and cut short like any quoted input.
+        Ok(Self { name: excerpt(name), positions, normals, indices: kept, material_offsets: Vec::new() })
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -186,9 +189,41 @@ fn check_mtl(text: &str) -> std::result::Result<String, (usize, String)> {
     Ok(out)
 }
 
-/// One `.mtl` file, read through `engine_io` and checked ([`check_mtl`]). A file that does not exist is the
-/// documented warning (the meshes get the default grey): `Ok(Err(OpenFileFailed))`, as `tobj` reports it.
-fn load_mtl(mtl: &Path, obj: &Path) -> Result<tobj::MTLLoadResult> {
+/// The `.mtl` statements that name a texture file (MTL spec: `map_*`, `bump`, `disp`, `decal`, `refl`).
+fn is_texture_statement(keyword: &str) -> bool {
+    keyword.starts_with("map_") || matches!(keyword, "bump" | "disp" | "decal" | "refl")
+}
+
+/// Every texture map a `.mtl` names must be inside the OBJ's folder, resolved against the `.mtl`'s own folder
+/// ([`engine_io::ModelFolder`]). The renderer reads no textures; the names are checked all the same, so that no
+/// model file can name a file outside its folder. A statement's value may start with options (`-s 1 1 1
+/// wood.png`): the whole value and its last word are both checked. An error is `(line, what is wrong)`.
+fn check_mtl_textures(
+    text: &str,
+    mtl: &Path,
+    folder: &engine_io::ModelFolder,
+) -> std::result::Result<(), (usize, String)> {
+    for (n, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        let (keyword, value) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
+        let value = value.trim();
+        if !is_texture_statement(keyword) || value.is_empty() {
+            continue;
+        }
+        let last = value.split_whitespace().last().unwrap_or(value);
+        for name in [value, last] {
+            folder
+                .resolve(mtl.parent(), name)
+                .map_err(|m| (n + 1, format!("`{keyword}` texture {} {m}", engine_io::quote(name))))?;
+        }
+    }
+    Ok(())
+}
+
+/// One `.mtl` file, read through `engine_io` and checked ([`check_mtl`], [`check_mtl_textures`]). A file that
+/// does not exist is the documented warning (the meshes get the default grey): `Ok(Err(OpenFileFailed))`, as
+/// `tobj` reports it.
+fn load_mtl(mtl: &Path, obj: &Path, folder: &engine_io::ModelFolder) -> Result<tobj::MTLLoadResult> {
     let text = match engine_io::read_to_string(mtl, engine_io::Limit::MATERIAL_LIBRARY) {
         Ok(t) => t,
         Err(engine_io::InputError::NotFound { .. }) => {
@@ -201,6 +236,7 @@ fn load_mtl(mtl: &Path, obj: &Path) -> Result<tobj::MTLLoadResult> {
     };
     let bad = |m: String| SceneError::invalid(mtl, format!("{m} (material library of {})", obj.display()));
     let checked = check_mtl(&text).map_err(|(line, m)| bad(format!("line {line}: {m}")))?;
+    check_mtl_textures(&text, mtl, folder).map_err(|(line, m)| bad(format!("line {line}: {m}")))?;
     match engine_io::catch_quiet(|| tobj::load_mtl_buf(&mut checked.as_bytes())) {
         Ok(Ok(m)) => Ok(Ok(m)),
         Ok(Err(e)) => Err(bad(format!("not a valid material library: {e}"))),
@@ -209,8 +245,9 @@ fn load_mtl(mtl: &Path, obj: &Path) -> Result<tobj::MTLLoadResult> {
 }
 
 /// Parse an OBJ file read through `engine_io`: relative indices checked first, its `mtllib` files (with
-/// `materials`) read through [`load_mtl`] (tobj's own loader would open any file, `/dev/zero` included), and a
-/// panic inside the `tobj` parser contained quietly as an error naming the file.
+/// `materials`) resolved inside the OBJ's folder ([`engine_io::ModelFolder`]: no traversal, absolute path,
+/// `file:` URI or symbolic link out) and read through [`load_mtl`] (tobj's own loader would open any file,
+/// `/dev/zero` included), and a panic inside the `tobj` parser contained quietly as an error naming the file.
 type ObjParse = (Vec<tobj::Model>, std::result::Result<Vec<tobj::Material>, tobj::LoadError>);
 fn parse_obj(path: &Path, materials: bool) -> Result<ObjParse> {
     let bytes = engine_io::read(path, engine_io::Limit::MESH)?;
@@ -218,12 +255,18 @@ fn parse_obj(path: &Path, materials: bool) -> Result<ObjParse> {
         .map_err(|m| SceneError::invalid(path, format!("not a valid OBJ file: {m}")))?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let mtl_error = std::cell::RefCell::new(None);
+    // Without materials no .mtl is read: the folder is needed only with them.
+    let folder = materials.then(|| engine_io::ModelFolder::of(path)).transpose()?;
     let loader = |name: &Path| -> tobj::MTLLoadResult {
-        if !materials || mtl_error.borrow().is_some() {
+        let Some(folder) = folder.as_ref().filter(|_| mtl_error.borrow().is_none()) else {
             return Err(tobj::LoadError::OpenFileFailed);
-        }
-        let full = path.parent().map_or(name.to_path_buf(), |d| d.join(name));
-        match load_mtl(&full, path) {
+        };
+        let name = name.to_string_lossy();
+        let resolved = folder
+            .resolve(None, &name)
+            .map_err(|m| SceneError::invalid(path, format!("mtllib {} {m}", engine_io::quote(&name))))
+            .and_then(|full| load_mtl(&full, path, folder));
+        match resolved {
             Ok(m) => m,
             Err(e) => {
                 *mtl_error.borrow_mut() = Some(e);
@@ -438,47 +481,67 @@ fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// Where a glTF URI that is no data URI names a file: inside the model's folder ([`engine_io::ModelFolder`]:
+/// traversal, absolute paths, `file:` URIs and symbolic links out are refused). glTF 2.0 §3.2: relative URIs are
+/// percent-encoded; any other scheme is refused. `what` names the referrer (`buffer 0`, `image 2`).
+fn resolve_uri(folder: &engine_io::ModelFolder, what: &str, uri: &str) -> std::result::Result<PathBuf, String> {
+    let refused = |m: &str| format!("{what}: URI {} {m}", engine_io::quote(uri));
+    let scheme = uri.find(':').filter(|&i| {
+        let s = &uri[..i];
+        s.len() > 1
+            && s.starts_with(|c: char| c.is_ascii_alphabetic())
+            && s.chars().all(|c| c.is_ascii_alphanumeric() || "+.-".contains(c))
+    });
+    if let Some(i) = scheme {
+        if !uri[..i].eq_ignore_ascii_case("file") {
+            return Err(refused(
+                "has an unsupported scheme; a model may name only data: URIs and files inside its own folder",
+            ));
+        }
+    }
+    let decoded = urlencoding::decode(uri).map_err(|_| refused("is not UTF-8 once percent-decoded"))?;
+    folder.resolve(None, &decoded).map_err(|m| refused(&m))
+}
+
 /// The buffers of a glTF: the GLB's binary chunk, data URIs (decoded by the `gltf` crate, which reads no file for
-/// them), and external files read through `engine_io` (`gltf::import_buffers` would read any file whole,
-/// `/dev/zero` and FIFOs included, and panics on a relative URI that percent-decodes to invalid UTF-8). Each
-/// buffer must hold at least its `byteLength`.
-fn read_buffers(
-    doc: &gltf::Document,
-    dir: Option<&Path>,
-    mut blob: Option<Vec<u8>>,
-) -> std::result::Result<Vec<gltf::buffer::Data>, String> {
+/// them), and external files inside the model's folder ([`resolve_uri`]) read through `engine_io`
+/// (`gltf::import_buffers` would read any file whole, anywhere, `/dev/zero` and FIFOs included, and panics on a
+/// relative URI that percent-decodes to invalid UTF-8). Each buffer must hold at least its `byteLength`. Images are
+/// never read (the renderer uses no textures), but their URIs obey the same rule, checked here: a model that names
+/// a file outside its folder is refused whatever the file is for.
+fn read_buffers(doc: &gltf::Document, path: &Path, mut blob: Option<Vec<u8>>) -> Result<Vec<gltf::buffer::Data>> {
+    let invalid = |m: String| SceneError::invalid(path, format!("not a valid glTF file: {m}"));
+    let folder = std::cell::OnceCell::new();
+    let folder = || -> Result<&engine_io::ModelFolder> {
+        if folder.get().is_none() {
+            let _ = folder.set(engine_io::ModelFolder::of(path)?);
+        }
+        Ok(folder.get().expect("set above"))
+    };
+    for image in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source() {
+            if !uri.starts_with("data:") {
+                resolve_uri(folder()?, &format!("image {}", image.index()), uri)
+                    .map_err(|m| SceneError::invalid(path, m))?;
+            }
+        }
+    }
     let mut out = Vec::new();
     for b in doc.buffers() {
         let external = match b.source() {
             gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
-                let file = match uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
-                    Some(f) => std::path::PathBuf::from(f),
-                    None if uri.contains(':') => {
-                        return Err(format!("buffer {}: unsupported URI scheme in '{}'", b.index(), excerpt(uri)))
-                    }
-                    // glTF 2.0 §3.2: relative URIs are percent-encoded.
-                    None => match urlencoding::decode(uri) {
-                        Ok(decoded) => std::path::PathBuf::from(decoded.into_owned()),
-                        Err(_) => {
-                            return Err(format!(
-                                "buffer {}: URI '{}' is not UTF-8 once decoded",
-                                b.index(),
-                                excerpt(uri)
-                            ))
-                        }
-                    },
-                };
-                let full = if file.is_absolute() { file } else { dir.unwrap_or(Path::new(".")).join(file) };
-                let mut bytes =
-                    engine_io::read(&full, engine_io::Limit::MESH).map_err(|e| format!("buffer {}: {e}", b.index()))?;
+                let full = resolve_uri(folder()?, &format!("buffer {}", b.index()), uri)
+                    .map_err(|m| SceneError::invalid(path, m))?;
+                let mut bytes = engine_io::read(&full, engine_io::Limit::MESH)
+                    .map_err(|e| invalid(format!("buffer {}: {e}", b.index())))?;
                 if bytes.len() < b.length() {
-                    return Err(format!(
+                    return Err(invalid(format!(
                         "buffer {}: {}: has {} bytes; its byteLength is {}",
                         b.index(),
                         full.display(),
                         bytes.len(),
                         b.length()
-                    ));
+                    )));
                 }
                 bytes.resize(bytes.len().next_multiple_of(4), 0);
                 Some(gltf::buffer::Data(bytes))
@@ -488,10 +551,15 @@ fn read_buffers(
         let data = match external {
             Some(d) => d,
             None => gltf::buffer::Data::from_source_and_blob(b.source(), None, &mut blob)
-                .map_err(|e| format!("buffer {}: {e}", b.index()))?,
+                .map_err(|e| invalid(format!("buffer {}: {e}", b.index())))?,
         };
         if data.len() < b.length() {
-            return Err(format!("buffer {} has {} bytes; its byteLength is {}", b.index(), data.len(), b.length()));
+            return Err(invalid(format!(
+                "buffer {} has {} bytes; its byteLength is {}",
+                b.index(),
+                data.len(),
+                b.length()
+            )));
         }
         out.push(data);
     }
@@ -503,7 +571,7 @@ fn load_gltf_unguarded(path: &Path, bytes: &[u8], material_base: usize) -> Resul
     check_glb_header(bytes).map_err(invalid)?;
     let gltf::Gltf { document: doc, blob } = super::gltf_import::parse(bytes).map_err(invalid)?;
     // Buffers only: the renderer reads no textures, so images (external files too) are not loaded.
-    let buffers = read_buffers(&doc, path.parent(), blob).map_err(invalid)?;
+    let buffers = read_buffers(&doc, path, blob)?;
     check_node_forest(&doc).map_err(|m| SceneError::invalid(path, format!("not a valid glTF file: {m}")))?;
     super::gltf_import::read(path, &doc, &buffers, material_base)
 }

@@ -428,6 +428,48 @@ pub struct SphereLight {
     pub radiance: Vec3,
 }
 
+/// The largest radiance a scene may carry, per channel: a light's radiance, and the environment's intensity times
+/// its brightest texel. Shading multiplies radiance by the BRDF (Blinn-Phong s = 10⁶ peaks at (s+8)/(8π) ≈ 4·10⁴)
+/// and a light's solid angle (at most 2π), the reference sums the squares of such samples over up to 2¹⁶ samples
+/// for its variance, and `--exposure` scales by up to 10⁶: with 10⁹ the squares stay near 10³⁴, within f32's
+/// 3.4·10³⁸, and exposed values stay finite. A light of radiance 10³⁸ gave an EXR of values up to 1.1·10³⁶ (and
+/// inf/NaN on the way). The bound is far above any measured sky (the sun's disc is ~10⁹ W/(sr·m²) in physical
+/// units; HDR maps store it scaled far lower).
+pub const MAX_RADIANCE: f32 = 1e9;
+
+/// The scene's radiance within [`MAX_RADIANCE`]: every light's radiance finite, ≥ 0 and at most the bound per
+/// channel, the environment's intensity finite and ≥ 0, and its product with the map's brightest texel at most the
+/// bound. Checked when a scene is uploaded; a scene file names its own keys before that.
+pub fn check_radiance(scene: &Scene) -> std::result::Result<(), String> {
+    for (i, l) in scene.lights.iter().enumerate() {
+        let r = l.radiance;
+        if !r.is_finite() || r.min_element() < 0.0 || r.max_element() > MAX_RADIANCE {
+            return Err(format!(
+                "light {i}: radiance [{}, {}, {}] is not in [0, {MAX_RADIANCE:e}] per channel (what f32 shading \
+                 carries)",
+                r.x, r.y, r.z
+            ));
+        }
+    }
+    let (intensity, brightest) = (scene.environment_intensity, brightest_texel(&scene.environment));
+    if !intensity.is_finite() || intensity < 0.0 {
+        return Err(format!("environment intensity {intensity} is not a finite number ≥ 0"));
+    }
+    let product = intensity as f64 * brightest as f64;
+    if product > MAX_RADIANCE as f64 {
+        return Err(format!(
+            "environment intensity {intensity} × its brightest texel {brightest:e} = {product:e}: more than the \
+             {MAX_RADIANCE:e} f32 shading carries"
+        ));
+    }
+    Ok(())
+}
+
+/// The largest channel of any texel of `map` (0 for an empty map; the loaders have made every texel finite).
+pub fn brightest_texel(map: &engine_math::envmap::LatLongMap) -> f32 {
+    map.texels.iter().flat_map(|t| t.iter().copied()).fold(0.0, f32::max)
+}
+
 /// Everything a frame renders.
 #[derive(Clone, Debug)]
 pub struct Scene {

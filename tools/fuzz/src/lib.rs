@@ -129,6 +129,27 @@ const NUMBERS: &[&str] = &[
     "0.0000001",
     "3.4e38",
     "1e-45",
+    // f32's limits and just beyond them (issue 48: every numeric key at the edge of what f32 holds).
+    "3.4028235e38",
+    "-3.4028235e38",
+    "3.4028236e38",
+    "3.5e38",
+    "1.1754944e-38",
+    "-9223372036854775808",
+    "9223372036854775807",
+    "340282350000000000000000000000000000000",
+];
+
+/// Control bytes and escape sequences a crafted file could aim at the user's terminal (issue 48): inserted
+/// anywhere, so every text field (names, URIs, header lines, keys) gets them. No error may print them raw.
+const CONTROL: &[&[u8]] = &[
+    b"\0",
+    b"\x02\x10\x1c\x7f",
+    b"\x1b[2J",
+    b"\x1b]0;owned\x07",
+    b"\r",
+    "\u{9b}31m".as_bytes(),
+    "\u{202e}".as_bytes(),
 ];
 
 /// Byte values of libFuzzer's "interesting" set.
@@ -144,7 +165,12 @@ pub fn mutate(rng: &mut Rng, data: &mut Vec<u8>, seeds: &[Vec<u8>]) {
             continue;
         }
         let n = data.len();
-        match rng.below(11) {
+        match rng.below(12) {
+            // Control bytes or an escape sequence at a random place.
+            11 => {
+                let i = rng.below(n + 1);
+                data.splice(i..i, CONTROL[rng.below(CONTROL.len())].iter().copied());
+            }
             // Flip a bit.
             0 => {
                 let i = rng.below(n);
@@ -292,6 +318,8 @@ pub struct Finding {
 #[derive(Clone, Debug)]
 pub struct Outcome {
     pub loaded: bool,
+    /// The loader's error, when it refused the input.
+    pub error: Option<String>,
     pub elapsed: Duration,
     /// Allocation peak above the live bytes at the start (0 without [`CountingAlloc`]).
     pub peak_bytes: usize,
@@ -346,11 +374,17 @@ pub fn execute(target: &Target, path: &Path) -> Outcome {
     let peak_bytes = PEAK.load(Ordering::Relaxed).saturating_sub(base);
     let panics = PANICS.with(|p| std::mem::take(&mut *p.borrow_mut()));
     match r {
-        Ok(res) => {
-            Outcome { loaded: res.is_ok(), elapsed, peak_bytes, contained_panics: panics.len() + quiet, escaped: None }
-        }
+        Ok(res) => Outcome {
+            loaded: res.is_ok(),
+            error: res.err(),
+            elapsed,
+            peak_bytes,
+            contained_panics: panics.len() + quiet,
+            escaped: None,
+        },
         Err(_) => Outcome {
             loaded: false,
+            error: None,
             elapsed,
             peak_bytes,
             contained_panics: panics.len().saturating_sub(1) + quiet,
@@ -370,7 +404,19 @@ pub fn check(outcome: &Outcome) -> Option<(&'static str, String)> {
     if outcome.elapsed > HANG_BOUND {
         return Some(("hang", format!("took {:.2} s", outcome.elapsed.as_secs_f64())));
     }
+    if let Some(e) = outcome.error.as_deref().filter(|e| has_control(e)) {
+        return Some(("control", format!("the error carries a control character: {e:?}")));
+    }
     None
+}
+
+/// Whether `text` holds a character that must not reach a terminal raw: a control character other than a line
+/// break, or a bidirectional override (issue 48: errors quoted raw bytes of the input).
+pub fn has_control(text: &str) -> bool {
+    text.chars().any(|c| {
+        (c.is_control() && c != '\n')
+            || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+    })
 }
 
 /// Totals of a run.

@@ -11,8 +11,10 @@
 //!
 //! Outcomes per run: `loaded` (it reached the GPU set-up), `refused` (exit 1 with one `error:` line), or a finding:
 //! `hang` (timed out), `signal` (an abort or a crash), `panic` (`panicked at` on stderr), `status` (an exit status
-//! other than 1), `no-error` (exit 1 without one `error:` line), `echo` (more than 4 kB on stderr). Findings are
-//! saved in `--dir`; the exit status is 1 when there is any.
+//! other than 1), `no-error` (exit 1 without one `error:` line), `echo` (more than 4 kB on stderr), `control` (a
+//! control character other than a line break on stderr: input printed raw), `escaped` (a `gltf-outside` seed, a
+//! model naming a file outside its folder, loaded). Findings are saved in `--dir`; the exit status is 1 when there
+//! is any.
 //!
 //! `tools/process-fuzz.sh` builds the release binaries and runs this with the counts written to
 //! docs/process-fuzz.md.
@@ -38,6 +40,9 @@ struct Place {
     seeds: fn() -> Vec<Vec<u8>>,
     setup: fn(&Path) -> std::io::Result<()>,
     args: &'static [&'static str],
+    /// The seeds must be refused (they name files outside the model's folder): a seed run that loads is a
+    /// finding (`escaped`).
+    seeds_refused: bool,
 }
 
 fn repo() -> PathBuf {
@@ -56,12 +61,41 @@ fn mtl_obj(dir: &Path) -> std::io::Result<()> {
     std::fs::write(dir.join("m.obj"), format!("mtllib input.mtl\nusemtl a\n{TRI}usemtl b\nv 0 0 1\nf 1 2 4\n"))
 }
 
-fn buffer_gltf(dir: &Path) -> std::io::Result<()> {
+/// The glTF seed with its data URI replaced by `uri`.
+fn gltf_with_uri(uri: &str) -> String {
     let seed = String::from_utf8(seeds::gltf().remove(0)).unwrap_or_default();
-    // The seed's data URI replaced by the external file.
     let start = seed.find("\"uri\"").unwrap_or(0);
     let end = seed[start..].find('}').map_or(seed.len(), |e| start + e);
-    std::fs::write(dir.join("b.gltf"), format!("{}\"uri\":\"input.bin\"{}", &seed[..start], &seed[end..]))
+    format!("{}\"uri\":\"{uri}\"{}", &seed[..start], &seed[end..])
+}
+
+fn buffer_gltf(dir: &Path) -> std::io::Result<()> {
+    std::fs::write(dir.join("b.gltf"), gltf_with_uri("input.bin"))
+}
+
+/// glTF files whose buffer is a valid one outside their folder (issue 48: `../../../../etc/passwd` was read):
+/// by `..`, percent-encoded `..`, an absolute path and a `file:` URI (through `/proc/self/cwd`, the run's folder),
+/// and a link in the folder to it. Each must be refused; read, it would load.
+fn outside_seeds() -> Vec<Vec<u8>> {
+    [
+        "../outside.bin",
+        "%2E%2E/outside.bin",
+        "/proc/self/cwd/../outside.bin",
+        "file:///proc/self/cwd/../outside.bin",
+        "link.bin",
+    ]
+    .iter()
+    .map(|u| gltf_with_uri(u).into_bytes())
+    .collect()
+}
+
+fn outside_buffer(dir: &Path) -> std::io::Result<()> {
+    let outside = dir.join("../outside.bin");
+    std::fs::write(&outside, buffer_seeds().remove(0))?;
+    match std::os::unix::fs::symlink(&outside, dir.join("link.bin")) {
+        Err(e) if e.kind() != std::io::ErrorKind::AlreadyExists => Err(e),
+        _ => Ok(()),
+    }
 }
 
 /// The glTF seed's binary buffer (the seed's data URI decoded).
@@ -108,16 +142,45 @@ fn map_scene(dir: &Path) -> std::io::Result<()> {
 }
 
 const PLACES: &[Place] = &[
-    Place { name: "obj", file: "input.obj", seeds: seeds::obj, setup: nothing, args: &["--scene", "input.obj"] },
-    Place { name: "mtl", file: "input.mtl", seeds: seeds::mtl, setup: mtl_obj, args: &["--scene", "m.obj"] },
-    Place { name: "gltf", file: "input.gltf", seeds: seeds::gltf, setup: nothing, args: &["--scene", "input.gltf"] },
-    Place { name: "glb", file: "input.glb", seeds: seeds::glb, setup: nothing, args: &["--scene", "input.glb"] },
+    Place {
+        name: "obj",
+        file: "input.obj",
+        seeds: seeds::obj,
+        setup: nothing,
+        args: &["--scene", "input.obj"],
+        seeds_refused: false,
+    },
+    Place {
+        name: "mtl",
+        file: "input.mtl",
+        seeds: seeds::mtl,
+        setup: mtl_obj,
+        args: &["--scene", "m.obj"],
+        seeds_refused: false,
+    },
+    Place {
+        name: "gltf",
+        file: "input.gltf",
+        seeds: seeds::gltf,
+        setup: nothing,
+        args: &["--scene", "input.gltf"],
+        seeds_refused: false,
+    },
+    Place {
+        name: "glb",
+        file: "input.glb",
+        seeds: seeds::glb,
+        setup: nothing,
+        args: &["--scene", "input.glb"],
+        seeds_refused: false,
+    },
     Place {
         name: "gltf-buffer",
         file: "input.bin",
         seeds: buffer_seeds,
         setup: buffer_gltf,
         args: &["--scene", "b.gltf"],
+        seeds_refused: false,
     },
     Place {
         name: "scene",
@@ -125,6 +188,7 @@ const PLACES: &[Place] = &[
         seeds: seeds::scene,
         setup: examples,
         args: &["--scene", "examples/input.toml"],
+        seeds_refused: false,
     },
     Place {
         name: "exr",
@@ -132,6 +196,7 @@ const PLACES: &[Place] = &[
         seeds: seeds::exr,
         setup: tri,
         args: &["--scene", "tri.obj", "--env", "input.exr"],
+        seeds_refused: false,
     },
     Place {
         name: "hdr",
@@ -139,6 +204,7 @@ const PLACES: &[Place] = &[
         seeds: seeds::hdr,
         setup: tri,
         args: &["--scene", "tri.obj", "--env", "input.hdr"],
+        seeds_refused: false,
     },
     Place {
         name: "spheres",
@@ -146,8 +212,24 @@ const PLACES: &[Place] = &[
         seeds: seeds::spheres,
         setup: bunny_spheres,
         args: &["--scene", "s.toml"],
+        seeds_refused: false,
     },
-    Place { name: "png", file: "input.png", seeds: seeds::png, setup: map_scene, args: &["--scene", "p.toml"] },
+    Place {
+        name: "png",
+        file: "input.png",
+        seeds: seeds::png,
+        setup: map_scene,
+        args: &["--scene", "p.toml"],
+        seeds_refused: false,
+    },
+    Place {
+        name: "gltf-outside",
+        file: "input.gltf",
+        seeds: outside_seeds,
+        setup: outside_buffer,
+        args: &["--scene", "input.gltf"],
+        seeds_refused: true,
+    },
 ];
 
 #[derive(Default)]
@@ -224,6 +306,8 @@ fn classify(code: Option<i32>, stderr: &str, timed_out: bool) -> Option<&'static
         Some("no-error")
     } else if stderr.len() > MAX_STDERR {
         Some("echo")
+    } else if engine_fuzz::has_control(stderr) {
+        Some("control")
     } else {
         None
     }
@@ -263,8 +347,13 @@ fn fuzz_place(s: &Settings, place: &Place, rng: &mut Rng) -> std::io::Result<Cou
                 let excerpt = engine::io::shorten(&stderr.chars().take(2000).collect::<String>());
                 c.findings.push((kind.to_string(), saved, format!("exit {code:?}: {excerpt}")));
             }
+            None if reached_gpu && seed_run && place.seeds_refused => {
+                let saved = s.dir.join(format!("escaped-{}-{}", place.name, place.file.replace('/', "_")));
+                std::fs::write(&saved, &data)?;
+                c.findings.push(("escaped".into(), saved, "a model read a file outside its folder".into()));
+            }
             None if reached_gpu => c.loaded += 1,
-            None if seed_run => {
+            None if seed_run && !place.seeds_refused => {
                 let saved = s.dir.join(format!("seed-refused-{}-{}", place.name, place.file.replace('/', "_")));
                 std::fs::write(&saved, &data)?;
                 c.findings.push(("seed-refused".into(), saved, engine::io::shorten(&stderr)));

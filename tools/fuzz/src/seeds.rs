@@ -148,8 +148,48 @@ pub fn hdr() -> Vec<Vec<u8>> {
 /// Scene descriptions: the two shipped examples.
 pub fn scene() -> Vec<Vec<u8>> {
     let examples = assets().join("../examples");
-    ["arm.toml", "still_life.toml", "glossy_light.toml"].iter().filter_map(|n| read(examples.join(n))).collect()
+    let mut out: Vec<Vec<u8>> =
+        ["arm.toml", "still_life.toml", "glossy_light.toml"].iter().filter_map(|n| read(examples.join(n))).collect();
+    out.push(ALL_KEYS.as_bytes().to_vec());
+    out
 }
+
+/// A scene file with every numeric key (issue 48: mutations put f32's limits in each), its paths relative to
+/// the examples folder.
+const ALL_KEYS: &str = r#"[camera]
+eye = [0.0, 1.6, 3.6]
+target = [0.0, 0.5, 0.0]
+fov_y = 45.0
+
+[environment]
+file = "../assets/envmaps/courtyard.exr"
+intensity = 0.8
+rotation = 120.0
+lights = 4
+light_threshold = 4.0
+light_share = 1.0
+light_radius = 15.0
+
+[ground]
+visible = true
+subdivisions = 8
+material = { brdf = "phong:e=10" }
+material_map = { file = "../assets/textures/lafortune_map.png", levels = 8, material = { brdf = "phong:e=50" } }
+
+[[light]]
+center = [1.2, 2.2, 1.0]
+radius = 0.25
+radiance = [12.0, 10.0, 8.0]
+
+[[model]]
+file = "arm.gltf"
+translation = [0.0, 0.1, 0.0]
+rotation = [0.0, 30.0, 0.0]
+scale = [1.0, 1.0, 1.0]
+material = { diffuse = [0.8, 0.5, 0.4], specular = [0.1, 0.1, 0.1], shininess = 100.0 }
+spheres = 0
+clip = "bend"
+"#;
 
 pub fn spheres() -> Vec<Vec<u8>> {
     read(assets().join("meshes/bunny.spheres.json")).into_iter().collect()

@@ -82,10 +82,19 @@ fn run(args: Args) -> Result<()> {
         return Ok(());
     }
     let fit = fit_spheres(&mesh, &settings, &mut |p| {
-        eprintln!(
-            "  iter {:3}  E(sum, grid) {:.5}  teleports {}/{}  {}",
-            p.iteration, p.outside_sum, p.teleports_accepted, p.teleports_tried, p.message
-        )
+        if p.setup {
+            eprintln!("  {:6.1} s  {}", t0.elapsed().as_secs_f64(), p.message);
+        } else {
+            eprintln!(
+                "  {:6.1} s  iter {:3}  E(sum, grid) {:.5}  teleports {}/{}  {}",
+                t0.elapsed().as_secs_f64(),
+                p.iteration,
+                p.outside_sum,
+                p.teleports_accepted,
+                p.teleports_tried,
+                p.message
+            )
+        }
     })?;
     let fit_time = t0.elapsed().as_secs_f64();
     eprintln!(
