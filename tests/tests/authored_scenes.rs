@@ -11,6 +11,9 @@ use glam::Vec3;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
+/// Where the lit room's sun light travels (see `lit_room`).
+const SUN_TRAVEL: Vec3 = Vec3::new(-0.556670, -0.766044, -0.321394);
+
 fn dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("authored-scenes-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -72,9 +75,10 @@ fn the_importer_reads_cameras_and_punctual_lights() {
         assert_eq!((lamp.intensity, lamp.color), (gltf_writer::ROOM_LAMP_CANDELA, Vec3::new(1.0, 0.9, 0.8)));
         assert!(lamp.world.w_axis.truncate().distance(Vec3::from(gltf_writer::ROOM_LAMP)) < 1e-6);
         assert_eq!((sun.kind, sun.radius, sun.color), (LightKind::Directional, None, Vec3::ONE));
-        // The sun travels along its node's −z: turned −60° about x, down and towards −z.
+        // The sun travels along its node's −z: pitched −50° about x then turned 60° about y, by hand
+        // (−cos 50° sin 60°, −sin 50°, −cos 50° cos 60°).
         let travel = sun.world.transform_vector3(Vec3::NEG_Z);
-        assert!(travel.distance(Vec3::new(0.0, -(60f32.to_radians().sin()), -0.5)) < 1e-5, "{travel}");
+        assert!(travel.distance(SUN_TRAVEL) < 1e-4, "{travel}");
     }
 }
 
@@ -139,7 +143,8 @@ fn punctual_lights_become_spherical_lights_in_engine_units() {
     let r = gltf_writer::ROOM_LAMP_RADIUS;
     assert!(lamp.center.distance(Vec3::from(gltf_writer::ROOM_LAMP)) < 1e-6);
     assert!((lamp.radius - r).abs() < 1e-7);
-    let want = Vec3::new(1.0, 0.9, 0.8) * gltf_writer::ROOM_LAMP_CANDELA * PHOTOMETRIC_EXPOSURE / (std::f32::consts::PI * r * r);
+    let want = Vec3::new(1.0, 0.9, 0.8) * gltf_writer::ROOM_LAMP_CANDELA * PHOTOMETRIC_EXPOSURE
+        / (std::f32::consts::PI * r * r);
     assert!((lamp.radiance - want).abs().max_element() < 1e-5 * want.max_element(), "{} vs {want}", lamp.radiance);
     // Its irradiance at the floor below it, by quadrature over the sphere's solid angle, is I / d² (× exposure):
     // the sphere gives what the point light gives.
@@ -150,7 +155,7 @@ fn punctual_lights_become_spherical_lights_in_engine_units() {
     assert!((e / point - 1.0).abs() < 2e-3, "sphere {e} vs point {point}");
     // Directional: 0.27° seen from the scene, along the node's +z, far away; illuminance facing it E (× exposure).
     let to_sun = (sun.center - Vec3::new(0.0, 0.3, 0.0)).normalize();
-    assert!(to_sun.distance(Vec3::new(0.0, 60f32.to_radians().sin(), 0.5)) < 1e-3, "{to_sun}");
+    assert!(to_sun.distance(-SUN_TRAVEL) < 1e-3, "{to_sun}");
     let alpha = (sun.radius / sun.center.distance(Vec3::new(0.0, 0.3, 0.0))).asin().to_degrees();
     assert!((alpha - 0.27).abs() < 1e-3, "{alpha}°");
     let e = irradiance(Vec3::new(0.0, 0.3, 0.0), to_sun, sun.center, sun.radius, sun.radiance.x as f64);
@@ -289,8 +294,8 @@ fn scene_files_name_a_models_camera_its_lights_and_its_receivers() {
     // Lights: the file's, moved with the model; light_radius and light_intensity; lights = false drops them.
     assert_eq!(framed.lights.len(), 2);
     assert!(framed.lights[0].center.distance(Vec3::from(gltf_writer::ROOM_LAMP) + Vec3::X) < 1e-5);
-    let tuned =
-        scene_file("i.toml", &format!("{model}light_radius = 0.4\nlight_intensity = 2.0\nlight_angle = 1.0\n")).unwrap();
+    let tuned = scene_file("i.toml", &format!("{model}light_radius = 0.4\nlight_intensity = 2.0\nlight_angle = 1.0\n"))
+        .unwrap();
     assert!((tuned.lights[0].radius - 0.4).abs() < 1e-6);
     // Radiance ∝ intensity / r²: twice the intensity on four times the area.
     let ratio = tuned.lights[0].radiance.x / framed.lights[0].radiance.x;

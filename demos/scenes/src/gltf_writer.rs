@@ -310,8 +310,11 @@ pub fn simple_skin() -> (GltfBuilder, Value) {
 /// Where [`lit_room`]'s point light and main camera sit, and the room's sizes.
 pub const ROOM_LAMP: [f32; 3] = [1.2, 2.0, 1.0];
 pub const ROOM_LAMP_RADIUS: f32 = 0.2;
-pub const ROOM_LAMP_CANDELA: f32 = 200.0;
-pub const ROOM_SUN_LUX: f32 = 2000.0;
+pub const ROOM_LAMP_CANDELA: f32 = 2000.0;
+/// A Blender sun of strength 1 as Blender's exporter writes it (1 W/m² × 683).
+pub const ROOM_SUN_LUX: f32 = 683.0;
+/// The sun node's turn: yaw about +y, then pitch about x (degrees); it travels along −z turned by them.
+pub const ROOM_SUN_YAW_PITCH: [f32; 2] = [60.0, -50.0];
 pub const ROOM_CAMERA_EYE: [f32; 3] = [0.0, 1.5, 4.0];
 pub const ROOM_CAMERA_YFOV: f32 = 0.7;
 /// Half the floor's side and half the block's side.
@@ -325,7 +328,8 @@ pub const ROOM_BLOCK_HALF: f32 = 0.3;
 /// [`ROOM_CAMERA_EYE`] turned about x to look at (0, 0.3, 0)), 3 `top-camera` (camera 1 `Top`, orthographic, 5 m
 /// above, looking down), 4 `lamp` (light 0 `Lamp`: point, [`ROOM_LAMP_CANDELA`] cd, colour (1, 0.9, 0.8), at
 /// [`ROOM_LAMP`], `extras.radius` [`ROOM_LAMP_RADIUS`]), 5 `sun` (light 1 `Sun`: directional, [`ROOM_SUN_LUX`]
-/// lux, turned −60° about x: it shines down and towards −z).
+/// lux, turned by [`ROOM_SUN_YAW_PITCH`]: it comes from the right, in front and 50° high, so the block's shadow
+/// falls to its left and back, in view).
 pub fn lit_room() -> (GltfBuilder, Value) {
     let mut b = GltfBuilder::default();
     let h = ROOM_BLOCK_HALF;
@@ -369,7 +373,8 @@ pub fn lit_room() -> (GltfBuilder, Value) {
     let look = glam::Vec3::new(0.0, 0.3, 0.0) - eye;
     let pitch = glam::Quat::from_rotation_x((look.y / (-look.z)).atan());
     let down = glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
-    let sun = glam::Quat::from_rotation_x(-60f32.to_radians());
+    let [yaw, pitch_deg] = ROOM_SUN_YAW_PITCH;
+    let sun = glam::Quat::from_rotation_y(yaw.to_radians()) * glam::Quat::from_rotation_x(pitch_deg.to_radians());
     let doc = json!({
         "scene": 0,
         "scenes": [{ "nodes": [0, 1, 2, 3, 4, 5] }],

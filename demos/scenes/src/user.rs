@@ -13,8 +13,8 @@ use engine::blockers::fit::FitSettings;
 use engine::blockers::Sphere;
 use engine::math::env_lights::{EnvLightParams, MAX_ENV_LIGHTS};
 use engine::math::envmap::LatLongMap;
-use engine::scene::material_map::{MaterialMap, MaterialMapping};
 use engine::scene::gltf_import::{GltfCamera, GltfLight, LightParams};
+use engine::scene::material_map::{MaterialMap, MaterialMapping};
 use engine::scene::{load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight};
 use glam::{EulerRot, Mat4, Quat, Vec3};
 use serde::Deserialize;
@@ -305,7 +305,10 @@ pub enum CameraSetup {
     Fixed(Camera),
     /// A camera of a model's file: of model `model` (`None`: the first model that has it); `key` `None`: the first
     /// camera of the file, or the automatic framing when no model has one.
-    File { model: Option<usize>, key: Option<CameraKey> },
+    File {
+        model: Option<usize>,
+        key: Option<CameraKey>,
+    },
 }
 
 /// The ground plane of a [`Composition`].
@@ -491,10 +494,7 @@ fn choose_camera(
     });
     let Some((m, cam)) = found else {
         let Some(k) = key else { return Ok(framed()) };
-        let listed: Vec<String> = candidates
-            .iter()
-            .flat_map(|&m| cameras[m].2.iter().map(|c| c.label()))
-            .collect();
+        let listed: Vec<String> = candidates.iter().flat_map(|&m| cameras[m].2.iter().map(|c| c.label())).collect();
         let files: Vec<String> = candidates.iter().map(|&m| cameras[m].1.display().to_string()).collect();
         if listed.is_empty() {
             bail!("camera {k}: {} has no cameras (use auto)", files.join(", "));
@@ -617,9 +617,15 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
         let scale = placement.to_scale_rotation_translation().0.abs().max_element();
         for l in &lights {
             if l.range.is_some() {
-                log::warn!("{}: {}: its range is ignored (spherical lights have no cut-off)", file.display(), l.label());
+                log::warn!(
+                    "{}: {}: its range is ignored (spherical lights have no cut-off)",
+                    file.display(),
+                    l.label()
+                );
             }
-            let light = l.sphere_light(placement, scale, &params, center, radius).map_err(|e| anyhow!("{}: {e}", file.display()))?;
+            let light = l
+                .sphere_light(placement, scale, &params, center, radius)
+                .map_err(|e| anyhow!("{}: {e}", file.display()))?;
             scene.lights.push(light);
         }
     }
@@ -1060,7 +1066,17 @@ fn build_scene_file(
             Some(false) => None,
             _ => Some(light_params(m, &key)?),
         };
-        models.push(Placement { model, file, transform, material, map, blockers, choice, lights, receivers: m.receivers.clone() });
+        models.push(Placement {
+            model,
+            file,
+            transform,
+            material,
+            map,
+            blockers,
+            choice,
+            lights,
+            receivers: m.receivers.clone(),
+        });
     }
     ensure!(clip_found, "--clip {}: no model of the scene has that clip", opts.clip.as_deref().unwrap_or(""));
     let (mut environment, mut intensity, mut env_lights) = (None, 1.0, EnvLightParams::default());
@@ -1144,7 +1160,9 @@ fn camera_setup(c: &CameraSpec, models: usize) -> Result<CameraSetup> {
     match (c.auto, file, fixed) {
         (Some(true), false, false) => return Ok(CameraSetup::Auto),
         (Some(_), _, _) => bail!("camera.auto: give `auto = true` alone (or leave [camera] out)"),
-        (None, true, true) => bail!("camera: give `eye`/`target`/`fov_y` or a model's camera (`model`, `name`), not both"),
+        (None, true, true) => {
+            bail!("camera: give `eye`/`target`/`fov_y` or a model's camera (`model`, `name`), not both")
+        }
         _ => {}
     }
     if file {

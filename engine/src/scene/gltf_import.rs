@@ -151,7 +151,10 @@ impl GltfCamera {
     /// levelled (with a warning). An orthographic camera is an error.
     pub fn view(&self, placement: Mat4, focus: f32) -> std::result::Result<Camera, String> {
         let fov = self.fov_y_degrees.ok_or_else(|| {
-            format!("{} is orthographic: only perspective cameras are supported (--camera auto frames the model)", self.label())
+            format!(
+                "{} is orthographic: only perspective cameras are supported (--camera auto frames the model)",
+                self.label()
+            )
         })?;
         if !(fov > 1.0 && fov < 179.0) {
             return Err(format!("{}: its yfov is {fov}° (the engine takes (1, 179))", self.label()));
@@ -234,7 +237,12 @@ impl GltfLight {
         };
         let ok = light.center.is_finite() && light.radius.is_finite() && light.radius > 0.0;
         if !ok || !light.radiance.is_finite() || light.radiance.min_element() < 0.0 {
-            return Err(format!("{}: its sphere is not finite (centre {}, radius {})", self.label(), light.center, light.radius));
+            return Err(format!(
+                "{}: its sphere is not finite (centre {}, radius {})",
+                self.label(),
+                light.center,
+                light.radius
+            ));
         }
         Ok(light)
     }
