@@ -208,7 +208,8 @@ impl GltfLight {
             LightKind::Spot { .. } => {
                 return Err(format!(
                     "{} is a spot light: spot cones are not supported (no technique has a cone falloff); drop the \
-                     file's lights with `lights = false` in a scene file's [[model]]",
+                     file's lights with a scene file: [[model]] file = \"<this file>\" lights = false \
+                     (docs/scene-files.md)",
                     self.label()
                 ))
             }
