@@ -1,13 +1,13 @@
 //! The user's scene as its author made it (issue 47): a glTF file's cameras, its `KHR_lights_punctual` lights and
-//! its own floor, on files our writer makes (`demos::gltf_writer::lit_room`). CPU only: what the importer reads,
+//! its own floor, on files our writer makes (`scenes::gltf_writer::lit_room`). CPU only: what the importer reads,
 //! what the scene builder makes of it (camera, spherical lights in engine units, floor without spheres and without
 //! the engine's ground), and the refusals, each an error naming the file and the thing refused.
 
-use demos::gltf_writer::{self, lit_room, Container};
-use demos::scenes::user::{self, CameraChoice, CameraKey, GroundMode, UserOptions};
 use engine::scene::gltf_import::{LightKind, PHOTOMETRIC_EXPOSURE};
 use engine::scene::load_gltf;
 use glam::Vec3;
+use scenes::gltf_writer::{self, lit_room, Container};
+use scenes::user::{self, CameraChoice, CameraKey, GroundMode, UserOptions};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
@@ -47,7 +47,7 @@ fn opts(test: &str) -> UserOptions {
 }
 
 fn load(p: &Path, o: &UserOptions) -> anyhow::Result<engine::scene::Scene> {
-    Ok(demos::scenes::load(p.to_str().unwrap(), None, o)?.scene)
+    Ok(scenes::load(p.to_str().unwrap(), None, o)?.scene)
 }
 
 fn err(p: &Path, o: &UserOptions) -> String {
@@ -250,7 +250,7 @@ fn a_model_with_its_own_floor_gets_no_engine_ground_and_no_spheres_on_the_floor(
     assert_eq!(load(&arm, &UserOptions { ground: Some(GroundMode::None), ..o.clone() }).unwrap().meshes.len(), 2);
     assert!("sideways".parse::<GroundMode>().is_err());
     // Registered scenes take neither option.
-    let e = demos::scenes::load("bunny", None, &UserOptions { ground: Some(GroundMode::None), ..Default::default() });
+    let e = scenes::load("bunny", None, &UserOptions { ground: Some(GroundMode::None), ..Default::default() });
     assert!(format!("{:#}", e.err().unwrap()).contains("--ground applies to file scenes"));
 }
 
@@ -264,7 +264,7 @@ fn scene_file(name: &str, text: &str) -> anyhow::Result<engine::scene::Scene> {
     let p = d.join(name);
     std::fs::write(&p, text).unwrap();
     let o = opts("toml");
-    Ok(user::scene_file(&p, None, &demos::assets_dir(), &o)?.scene)
+    Ok(user::scene_file(&p, None, &scenes::assets_dir(), &o)?.scene)
 }
 
 #[test]
@@ -326,5 +326,5 @@ fn examples_lit_room_is_the_writers_output() {
     let (b, doc) = lit_room();
     b.write(doc, &fresh, Container::Embedded).unwrap();
     let (a, b) = (std::fs::read_to_string(&shipped).unwrap(), std::fs::read_to_string(&fresh).unwrap());
-    assert!(a == b, "examples/lit_room.gltf drifted: `cargo run -p demos --bin write_gltf_example -- --model room`");
+    assert!(a == b, "examples/lit_room.gltf drifted: `cargo run -p scenes --bin write_gltf_example -- --model room`");
 }

@@ -1,11 +1,11 @@
-//! The lit room (`demos::gltf_writer::lit_room`, `examples/lit_room.gltf`) renders through its own camera with its
+//! The lit room (`scenes::gltf_writer::lit_room`, `examples/lit_room.gltf`) renders through its own camera with its
 //! own lights in every technique (tiny, validation on): finite, not black; and the directional light arrives with
 //! the illuminance the file gives, in the engine's units (lux / 683), through the renderer: `none` shades spherical
 //! lights in closed form, so the sun's share of a floor pixel is ρ/π · E cos θ.
 
-use demos::scenes::user::UserOptions;
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::gltf_import::PHOTOMETRIC_EXPOSURE;
+use scenes::user::UserOptions;
 use std::path::PathBuf;
 
 const W: u32 = 64;
@@ -27,7 +27,7 @@ fn lit_room() -> engine::scene::Scene {
         }),
         ..Default::default()
     };
-    demos::scenes::load(example.to_str().unwrap(), None, &opts).expect("examples/lit_room.gltf").scene
+    scenes::load(example.to_str().unwrap(), None, &opts).expect("examples/lit_room.gltf").scene
 }
 
 fn render(gpu: &engine::gpu::Gpu, scene: &engine::scene::Scene, technique: &str) -> Vec<f32> {
@@ -59,7 +59,7 @@ fn the_lit_room_renders_in_every_technique_and_its_sun_has_the_files_illuminance
     dark.lights.truncate(1);
     let without = render(&gpu, &dark, "none");
     // The floor (ρ_d = 0.6) faces up; the sun is 50° high: E cos θ = E sin 50°.
-    let e = demos::gltf_writer::ROOM_SUN_LUX * PHOTOMETRIC_EXPOSURE * 50f32.to_radians().sin();
+    let e = scenes::gltf_writer::ROOM_SUN_LUX * PHOTOMETRIC_EXPOSURE * 50f32.to_radians().sin();
     let want = 0.6 / std::f32::consts::PI * e;
     let deltas: Vec<f32> = with.chunks_exact(4).zip(without.chunks_exact(4)).map(|(a, b)| a[1] - b[1]).collect();
     // Within 6 %: the floor's weak specular term (k_s = 0.04, roughness 1) adds a little.

@@ -61,7 +61,7 @@ fn gltf_json(buffer: &str) -> String {
 /// material; the buffer as a data URI.
 pub fn gltf() -> Vec<Vec<u8>> {
     let uri = format!(r#","uri":"data:application/octet-stream;base64,{}""#, base64::encode(gltf_buffer()));
-    // The lit room (demos::gltf_writer::lit_room): cameras, KHR_lights_punctual lights and node extras.
+    // The lit room (scenes::gltf_writer::lit_room): cameras, KHR_lights_punctual lights and node extras.
     let room = include_bytes!("../../../examples/lit_room.gltf").to_vec();
     vec![gltf_json(&uri).into_bytes(), room]
 }

@@ -104,8 +104,7 @@ fn main() {
 
 fn run() -> Result<()> {
     let args = Args::parse();
-    let opts =
-        scenes::user::UserOptions { camera: args.camera.clone(), ground: args.ground, ..Default::default() };
+    let opts = scenes::user::UserOptions { camera: args.camera.clone(), ground: args.ground, ..Default::default() };
     let mut scene = scenes::load(&args.scene, args.env.as_deref(), &opts)?.scene;
     if let Some(m) = scene.materials.first_mut() {
         if let Some(s) = args.gloss {
