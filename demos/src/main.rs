@@ -37,6 +37,14 @@ struct Args {
     /// File scenes with --animate: play only the animation clip NAME (default: every clip in turn).
     #[arg(long, value_name = "NAME", requires = "animate")]
     clip: Option<String>,
+    /// File scenes: the glTF camera N (its index in the file's `cameras`) or NAME, or `auto` (framed) [default: the
+    /// file's first camera, else framed; a scene file's [camera]].
+    #[arg(long, value_name = "N|NAME|auto")]
+    camera: Option<scenes::user::CameraChoice>,
+    /// File scenes: `engine` (a ground plane under the models), `none`, or `auto` (the engine's ground unless the
+    /// model brings its own floor) [default: auto, or a scene file's ground.mode].
+    #[arg(long, value_name = "none|auto|engine")]
+    ground: Option<scenes::user::GroundMode>,
     /// Shading technique `NAME[:key=value,...]` (`--help` lists every registered technique and its
     /// options).
     #[arg(long, default_value = engine::renderer::DEFAULT_TECHNIQUE)]
@@ -314,6 +322,8 @@ fn run() -> anyhow::Result<()> {
     let opts = scenes::user::UserOptions {
         spheres: args.spheres.map(|n| n as usize),
         clip: args.clip.clone(),
+        camera: args.camera.clone(),
+        ground: args.ground,
         ..Default::default()
     };
     let loaded = scenes::load(&args.scene, args.env.as_deref(), &opts)?;

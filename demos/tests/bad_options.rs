@@ -94,6 +94,10 @@ fn meaningless_or_impossible_options_are_refused_before_the_gpu() {
         (&["--name", "../escape"], &["--name", "not a file name"]),
         (&["--exit-after", "5"], &["--exit-after", "--window"]),
         (&["--memory", "--capture", "2"], &["--memory", "--capture"]),
+        (&["--ground", "sideways"], &["--ground", "none, auto or engine"]),
+        (&["--camera", ""], &["--camera", "auto"]),
+        (&["--ground", "none"], &["--ground applies to file scenes"]),
+        (&["--camera", "auto"], &["--camera applies to file scenes"]),
     ];
     for (args, needles) in cases {
         let mut all = TINY.to_vec();

@@ -82,6 +82,8 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
             map: None,
             blockers: Blockers::Fit(0),
             choice,
+            lights: None,
+            receivers: None,
         });
     }
     let (statics, static_spheres) = props();
@@ -94,6 +96,8 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
         map: None,
         blockers: Blockers::Fit(0),
         choice: ClipChoice::Still,
+        lights: None,
+        receivers: None,
     });
     let composition = Composition {
         models,
@@ -101,8 +105,13 @@ pub fn compose(assets: &Path, environment: LatLongMap) -> Result<user::UserScene
         environment_intensity: 0.6,
         env_lights: Default::default(),
         lights: lights(),
-        camera: Some(Camera { eye: Vec3::new(0.4, 2.3, 5.2), target: Vec3::new(0.0, 0.8, -0.3), fov_y_degrees: 45.0 }),
+        camera: user::CameraSetup::Fixed(Camera {
+            eye: Vec3::new(0.4, 2.3, 5.2),
+            target: Vec3::new(0.0, 0.8, -0.3),
+            fov_y_degrees: 45.0,
+        }),
         ground: Some(user::Ground::plain(Material::diffuse(Vec3::new(0.45, 0.4, 0.33)))),
+        ground_mode: user::GroundMode::Engine,
     };
     let mut u = user::assemble(composition, &UserOptions::default())?;
     for (mesh, s) in spheres.into_iter().enumerate() {
@@ -165,6 +174,7 @@ fn props() -> (Model, Vec<Vec<Sphere>>) {
         instances,
         skins: vec![None; n],
         rig: Rig::default(),
+        ..Default::default()
     };
     (model, spheres)
 }

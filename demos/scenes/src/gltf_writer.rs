@@ -307,6 +307,104 @@ pub fn simple_skin() -> (GltfBuilder, Value) {
     (b, doc)
 }
 
+/// Where [`lit_room`]'s point light and main camera sit, and the room's sizes.
+pub const ROOM_LAMP: [f32; 3] = [1.2, 2.0, 1.0];
+pub const ROOM_LAMP_RADIUS: f32 = 0.2;
+pub const ROOM_LAMP_CANDELA: f32 = 2000.0;
+/// A Blender sun of strength 1 as Blender's exporter writes it (1 W/m² × 683).
+pub const ROOM_SUN_LUX: f32 = 683.0;
+/// The sun node's turn: yaw about +y, then pitch about x (degrees); it travels along −z turned by them.
+pub const ROOM_SUN_YAW_PITCH: [f32; 2] = [60.0, -50.0];
+pub const ROOM_CAMERA_EYE: [f32; 3] = [0.0, 1.5, 4.0];
+pub const ROOM_CAMERA_YFOV: f32 = 0.7;
+/// Half the floor's side and half the block's side.
+pub const ROOM_FLOOR_HALF: f32 = 2.0;
+pub const ROOM_BLOCK_HALF: f32 = 0.3;
+
+/// A model as an author exports it with its own stage: a block (a 0.6 m cube on the floor, material 0) on a floor
+/// (a 4 m square at y = 0, material 1), two cameras and two `KHR_lights_punctual` lights.
+///
+/// Nodes: 0 `block`, 1 `floor`, 2 `main-camera` (camera 0 `Main`, perspective, yfov [`ROOM_CAMERA_YFOV`] rad, at
+/// [`ROOM_CAMERA_EYE`] turned about x to look at (0, 0.3, 0)), 3 `top-camera` (camera 1 `Top`, orthographic, 5 m
+/// above, looking down), 4 `lamp` (light 0 `Lamp`: point, [`ROOM_LAMP_CANDELA`] cd, colour (1, 0.9, 0.8), at
+/// [`ROOM_LAMP`], `extras.radius` [`ROOM_LAMP_RADIUS`]), 5 `sun` (light 1 `Sun`: directional, [`ROOM_SUN_LUX`]
+/// lux, turned by [`ROOM_SUN_YAW_PITCH`]: it comes from the right, in front and 50° high, so the block's shadow
+/// falls to its left and back, in view).
+pub fn lit_room() -> (GltfBuilder, Value) {
+    let mut b = GltfBuilder::default();
+    let h = ROOM_BLOCK_HALF;
+    let (mut pos, mut nrm, mut idx) = (vec![], vec![], vec![]);
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = [0.0f32; 3];
+            n[axis] = sign;
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = (pos.len() / 3) as u32;
+            for (a, c) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let mut p = [0.0f32; 3];
+                p[axis] = sign * h;
+                p[u] = a * h;
+                p[v] = c * h;
+                p[1] += h;
+                pos.extend(p);
+                nrm.extend(n);
+            }
+            // Counter-clockwise seen from outside: (u, v, n) is right-handed, so flip for the negative side.
+            if sign > 0.0 {
+                idx.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+            } else {
+                idx.extend([base, base + 2, base + 1, base, base + 3, base + 2]);
+            }
+        }
+    }
+    let block = json!({ "name": "block", "primitives": [{
+        "attributes": { "POSITION": b.floats("VEC3", &pos), "NORMAL": b.floats("VEC3", &nrm) },
+        "indices": b.indices(&idx),
+        "material": 0,
+    }]});
+    let f = ROOM_FLOOR_HALF;
+    let floor_pos = [-f, 0.0, -f, -f, 0.0, f, f, 0.0, f, f, 0.0, -f];
+    let floor = json!({ "name": "floor", "primitives": [{
+        "attributes": { "POSITION": b.floats("VEC3", &floor_pos), "NORMAL": b.floats("VEC3", &[0.0, 1.0, 0.0].repeat(4)) },
+        "indices": b.indices(&[0, 1, 2, 0, 2, 3]),
+        "material": 1,
+    }]});
+    let eye = glam::Vec3::from(ROOM_CAMERA_EYE);
+    let look = glam::Vec3::new(0.0, 0.3, 0.0) - eye;
+    let pitch = glam::Quat::from_rotation_x((look.y / (-look.z)).atan());
+    let down = glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let [yaw, pitch_deg] = ROOM_SUN_YAW_PITCH;
+    let sun = glam::Quat::from_rotation_y(yaw.to_radians()) * glam::Quat::from_rotation_x(pitch_deg.to_radians());
+    let doc = json!({
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1, 2, 3, 4, 5] }],
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": { "KHR_lights_punctual": { "lights": [
+            { "name": "Lamp", "type": "point", "color": [1.0, 0.9, 0.8], "intensity": ROOM_LAMP_CANDELA },
+            { "name": "Sun", "type": "directional", "intensity": ROOM_SUN_LUX },
+        ]}},
+        "nodes": [
+            { "name": "block", "mesh": 0 },
+            { "name": "floor", "mesh": 1 },
+            { "name": "main-camera", "camera": 0, "translation": ROOM_CAMERA_EYE, "rotation": pitch.to_array() },
+            { "name": "top-camera", "camera": 1, "translation": [0.0, 5.0, 0.0], "rotation": down.to_array() },
+            { "name": "lamp", "translation": ROOM_LAMP, "extras": { "radius": ROOM_LAMP_RADIUS },
+              "extensions": { "KHR_lights_punctual": { "light": 0 } } },
+            { "name": "sun", "rotation": sun.to_array(), "extensions": { "KHR_lights_punctual": { "light": 1 } } },
+        ],
+        "cameras": [
+            { "name": "Main", "type": "perspective", "perspective": { "yfov": ROOM_CAMERA_YFOV, "znear": 0.05, "aspectRatio": 1.5 } },
+            { "name": "Top", "type": "orthographic", "orthographic": { "xmag": 3.0, "ymag": 2.0, "znear": 0.1, "zfar": 10.0 } },
+        ],
+        "meshes": [block, floor],
+        "materials": [
+            { "pbrMetallicRoughness": { "baseColorFactor": [0.8, 0.3, 0.2, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.6 } },
+            { "pbrMetallicRoughness": { "baseColorFactor": [0.6, 0.6, 0.6, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 } },
+        ],
+    });
+    (b, doc)
+}
+
 /// The arm of `examples/arm.gltf` (24 rings of 16 vertices).
 pub fn example_arm() -> (GltfBuilder, Value) {
     two_bone_arm(24, 16)

@@ -364,6 +364,11 @@ pub fn load(spec: &str, env: Option<&Path>, opts: &user::UserOptions) -> Result<
         return Ok(Loaded { label: spec.to_string(), scene: u.scene, animation: u.clips.map(Animation::clips) });
     }
     anyhow::ensure!(opts.clip.is_none(), "--clip applies to file scenes (glTF clips); '{spec}' is a registered scene");
+    anyhow::ensure!(
+        opts.camera.is_none(),
+        "--camera applies to file scenes (glTF cameras); '{spec}' is a registered scene"
+    );
+    anyhow::ensure!(opts.ground.is_none(), "--ground applies to file scenes; '{spec}' is a registered scene");
     let entry = find(spec)?;
     let scene = build(entry.name, env)?;
     let animation = Animation::for_entry(entry, &scene);

@@ -14,6 +14,7 @@ use engine::blockers::fit::FitSettings;
 use engine::blockers::Sphere;
 use engine::math::env_lights::EnvLightParams;
 use engine::math::envmap::LatLongMap;
+use engine::scene::gltf_import::{GltfCamera, GltfLight, LightParams};
 use engine::scene::material_map::{MaterialMap, MaterialMapping};
 use engine::scene::{load_environment, Camera, Instance, Material, Mesh, Rig, Scene, SceneBlockers, Skin, SphereLight};
 use glam::{EulerRot, Mat4, Quat, Vec3};
@@ -45,6 +46,84 @@ pub struct UserOptions {
     pub cache: Option<PathBuf>,
     /// Fit settings other than the count (tests use small ones; default: `FitSettings::default()`).
     pub fit: Option<FitSettings>,
+    /// `--camera N|NAME|auto`: a camera of the file(s), or the automatic framing (default: the file's first
+    /// camera for a model file, the scene file's `[camera]` for a scene file).
+    pub camera: Option<CameraChoice>,
+    /// `--ground none|auto|engine` (default: auto, or the scene file's `ground.mode`).
+    pub ground: Option<GroundMode>,
+}
+
+/// `--camera`: the automatic framing, or a camera of the model's file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CameraChoice {
+    Auto,
+    File(CameraKey),
+}
+
+/// A glTF camera by its index in the file's `cameras`, or by its name (or its node's).
+#[derive(Clone, Debug, PartialEq)]
+pub enum CameraKey {
+    Index(usize),
+    Name(String),
+    /// The file's first camera (an error if it has none).
+    First,
+}
+
+impl std::str::FromStr for CameraChoice {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "" => Err("--camera: give N (the file's camera index), a camera's name, or auto".into()),
+            "auto" => Ok(Self::Auto),
+            _ => Ok(Self::File(match s.parse::<usize>() {
+                Ok(i) => CameraKey::Index(i),
+                Err(_) => CameraKey::Name(s.to_string()),
+            })),
+        }
+    }
+}
+
+impl CameraKey {
+    fn find<'a>(&self, cameras: &'a [GltfCamera]) -> Option<&'a GltfCamera> {
+        match self {
+            CameraKey::Index(i) => cameras.iter().find(|c| c.camera == *i),
+            CameraKey::Name(n) => cameras.iter().find(|c| c.is_named(n)),
+            CameraKey::First => cameras.first(),
+        }
+    }
+}
+
+impl std::fmt::Display for CameraKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            CameraKey::Index(i) => write!(f, "{i}"),
+            CameraKey::Name(n) => write!(f, "'{}'", engine::io::excerpt(n)),
+            CameraKey::First => write!(f, "(the first)"),
+        }
+    }
+}
+
+/// `--ground`: whether the engine adds its ground plane under the models.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroundMode {
+    /// No engine ground.
+    None,
+    /// The engine's ground unless a model brings its own floor ([`find_floors`]).
+    Auto,
+    /// The engine's ground always.
+    Engine,
+}
+
+impl std::str::FromStr for GroundMode {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "none" => Ok(Self::None),
+            "auto" => Ok(Self::Auto),
+            "engine" => Ok(Self::Engine),
+            _ => Err(format!("ground mode '{}': use none, auto or engine", engine::io::excerpt(s))),
+        }
+    }
 }
 
 /// A file scene, built.
@@ -74,6 +153,10 @@ pub struct Model {
     pub skins: Vec<Option<Skin>>,
     /// glTF nodes, bones and clips (OBJ: the default, no bones or clips).
     pub rig: Rig,
+    /// glTF cameras (OBJ: none).
+    pub cameras: Vec<GltfCamera>,
+    /// glTF `KHR_lights_punctual` lights (OBJ: none).
+    pub lights: Vec<GltfLight>,
 }
 
 /// Load a `.gltf`, `.glb` or `.obj` file as one model.
@@ -82,7 +165,15 @@ pub fn load_model(path: &Path) -> Result<Model> {
     match ext.as_str() {
         "gltf" | "glb" => {
             let g = engine::scene::load_gltf(path, 0)?;
-            Ok(Model { meshes: g.meshes, materials: g.materials, instances: g.instances, skins: g.skins, rig: g.rig })
+            Ok(Model {
+                meshes: g.meshes,
+                materials: g.materials,
+                instances: g.instances,
+                skins: g.skins,
+                rig: g.rig,
+                cameras: g.cameras,
+                lights: g.lights,
+            })
         }
         "obj" => {
             let (meshes, materials) = engine::scene::load_obj_with_materials(path)?;
@@ -90,7 +181,7 @@ pub fn load_model(path: &Path) -> Result<Model> {
                 (0..meshes.len()).map(|i| Instance { mesh: i, transform: Mat4::IDENTITY, material: i }).collect();
             let skins = vec![None; meshes.len()];
             let rig = Rig { instance_nodes: vec![None; meshes.len()], ..Default::default() };
-            Ok(Model { meshes, materials, instances, skins, rig })
+            Ok(Model { meshes, materials, instances, skins, rig, ..Default::default() })
         }
         _ => bail!("{}: not a model file (expected .gltf, .glb or .obj)", path.display()),
     }
@@ -177,6 +268,11 @@ pub struct Placement {
     pub map: Option<MaterialMapping>,
     pub blockers: Blockers,
     pub choice: ClipChoice,
+    /// How the file's punctual lights become spherical lights (`None`: they are dropped).
+    pub lights: Option<LightParams>,
+    /// Meshes that only receive (no blocker spheres), by name (`name#primitive` or the glTF mesh's name); `None`:
+    /// the model's floors ([`find_floors`]).
+    pub receivers: Option<Vec<String>>,
 }
 
 /// A model's blocker spheres.
@@ -196,9 +292,24 @@ pub struct Composition {
     /// How the environment is split into lights and a residual (`[environment] lights`, …).
     pub env_lights: EnvLightParams,
     pub lights: Vec<SphereLight>,
-    pub camera: Option<Camera>,
-    /// A ground plane under the models' rest bounds.
+    pub camera: CameraSetup,
+    /// A ground plane under the models' rest bounds (with [`GroundMode::Auto`]: unless a model has a floor).
     pub ground: Option<Ground>,
+    pub ground_mode: GroundMode,
+}
+
+/// Which camera a [`Composition`] uses.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CameraSetup {
+    /// Framed automatically around the models' rest bounds ([`framing_camera`]).
+    Auto,
+    Fixed(Camera),
+    /// A camera of a model's file: of model `model` (`None`: the first model that has it); `key` `None`: the first
+    /// camera of the file, or the automatic framing when no model has one.
+    File {
+        model: Option<usize>,
+        key: Option<CameraKey>,
+    },
 }
 
 /// The ground plane of a [`Composition`].
@@ -225,29 +336,103 @@ pub const MAX_GROUND_SUBDIVISIONS: u32 = limits::GROUND_SUBDIVISIONS.hi as u32;
 /// Palette levels of a material map unless its file says otherwise.
 pub const DEFAULT_MAP_LEVELS: u32 = 32;
 
-/// World-space bounds of `scene` at rest, skinned vertices posed by the rest bones.
-pub fn posed_bounds(scene: &Scene) -> (Vec3, Vec3) {
+/// World-space bounds of one instance of `scene` at rest, skinned vertices posed by the rest bones.
+pub fn instance_bounds(scene: &Scene, inst: &Instance) -> (Vec3, Vec3) {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for inst in &scene.instances {
-        let mesh = &scene.meshes[inst.mesh];
-        let skin = scene.blockers.skin_of(inst.mesh);
-        for (v, p) in mesh.positions.iter().enumerate() {
-            let local = match skin {
-                Some(s) if s.weights[v].iter().sum::<f32>() > 0.0 => (0..4)
-                    .map(|k| {
-                        let b = scene.blockers.bones.get(s.joints[v][k] as usize).copied().unwrap_or(Mat4::IDENTITY);
-                        s.weights[v][k] * b.transform_point3(*p)
-                    })
-                    .sum(),
-                _ => *p,
-            };
-            let w = inst.transform.transform_point3(local);
-            lo = lo.min(w);
-            hi = hi.max(w);
-        }
+    let mesh = &scene.meshes[inst.mesh];
+    let skin = scene.blockers.skin_of(inst.mesh);
+    for (v, p) in mesh.positions.iter().enumerate() {
+        let local = match skin {
+            Some(s) if s.weights[v].iter().sum::<f32>() > 0.0 => (0..4)
+                .map(|k| {
+                    let b = scene.blockers.bones.get(s.joints[v][k] as usize).copied().unwrap_or(Mat4::IDENTITY);
+                    s.weights[v][k] * b.transform_point3(*p)
+                })
+                .sum(),
+            _ => *p,
+        };
+        let w = inst.transform.transform_point3(local);
+        lo = lo.min(w);
+        hi = hi.max(w);
     }
     (lo, hi)
+}
+
+/// World-space bounds of `scene` at rest, skinned vertices posed by the rest bones.
+pub fn posed_bounds(scene: &Scene) -> (Vec3, Vec3) {
+    bounds_of(scene, |_| true)
+}
+
+/// World-space bounds at rest of the instances whose mesh passes `keep`.
+fn bounds_of(scene: &Scene, keep: impl Fn(usize) -> bool) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for inst in scene.instances.iter().filter(|i| keep(i.mesh)) {
+        let (a, b) = instance_bounds(scene, inst);
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    (lo, hi)
+}
+
+/// A floor's height (y extent) is at most this fraction of its width; it lies at most this fraction of the
+/// model's size above the model's lowest point.
+pub const FLOOR_FLATNESS: f32 = 1e-3;
+
+/// The meshes of `scene` that are a floor the models bring: a rigid mesh with one instance that is flat and
+/// horizontal (its y extent at most [`FLOOR_FLATNESS`] of its x–z extent), lies at the base of everything (its y
+/// within [`FLOOR_FLATNESS`] of the scene's size of the lowest point), and is larger than the rest (its x–z
+/// rectangle holds the centre of the other instances' x–z bounds and has at least their area). A lone mesh is never
+/// a floor. Index = mesh index.
+pub fn find_floors(scene: &Scene) -> Vec<bool> {
+    let n = scene.meshes.len();
+    let mut count = vec![0usize; n];
+    for inst in &scene.instances {
+        count[inst.mesh] += 1;
+    }
+    let bounds: Vec<(Vec3, Vec3)> = scene.instances.iter().map(|i| instance_bounds(scene, i)).collect();
+    let (lo, hi) = posed_bounds(scene);
+    let size = (hi - lo).max_element().max(1e-6);
+    let mut floors = vec![false; n];
+    for (i, inst) in scene.instances.iter().enumerate() {
+        let m = inst.mesh;
+        if count[m] != 1 || scene.blockers.skin_of(m).is_some() || scene.meshes[m].indices.is_empty() {
+            continue;
+        }
+        let (flo, fhi) = bounds[i];
+        let ext = fhi - flo;
+        let flat = ext.y <= FLOOR_FLATNESS * ext.x.max(ext.z) && ext.x > 0.0 && ext.z > 0.0;
+        if !flat || flo.y - lo.y > FLOOR_FLATNESS * size {
+            continue;
+        }
+        let mut olo = Vec3::splat(f32::INFINITY);
+        let mut ohi = Vec3::splat(f32::NEG_INFINITY);
+        for (k, b) in bounds.iter().enumerate() {
+            if k != i {
+                olo = olo.min(b.0);
+                ohi = ohi.max(b.1);
+            }
+        }
+        if !olo.is_finite() || !ohi.is_finite() {
+            continue;
+        }
+        let c = 0.5 * (olo + ohi);
+        let holds = (flo.x..=fhi.x).contains(&c.x) && (flo.z..=fhi.z).contains(&c.z);
+        let other = (ohi - olo).max(Vec3::ZERO);
+        floors[m] = holds && ext.x * ext.z >= other.x * other.z;
+    }
+    floors
+}
+
+/// Whether every instance of `mesh` is a flat rectangle (so it can stand in for the engine's ground as a plane
+/// blocker, `BlockerPlane::from_flat_mesh`).
+fn is_rectangle(scene: &Scene, mesh: usize) -> bool {
+    let m = &scene.meshes[mesh];
+    scene.instances.iter().filter(|i| i.mesh == mesh).all(|i| {
+        let world: Vec<glam::DVec3> = m.positions.iter().map(|p| i.transform.transform_point3(*p).as_dvec3()).collect();
+        engine::scene::blockers::BlockerPlane::from_flat_mesh(&world, &m.indices).is_ok()
+    })
 }
 
 /// A camera looking at the middle of `lo..hi` from the front and above, far enough to see all of it.
@@ -259,8 +444,75 @@ pub fn framing_camera(lo: Vec3, hi: Vec3) -> Camera {
     Camera { eye: target + Vec3::new(0.0, 0.45, 1.0).normalize() * distance, target, fov_y_degrees }
 }
 
+/// The meshes of a model that `names` lists (`name#primitive`, or a glTF mesh's name for all its primitives); a
+/// name that matches none is an error listing the meshes.
+fn named_meshes(meshes: &[Mesh], names: &[String], file: &Path) -> Result<Vec<bool>> {
+    let mut out = vec![false; meshes.len()];
+    for n in names {
+        let mut found = false;
+        for (k, m) in meshes.iter().enumerate() {
+            let base = m.name.rsplit_once('#').map_or(m.name.as_str(), |(b, _)| b);
+            if m.name == *n || base == n {
+                out[k] = true;
+                found = true;
+            }
+        }
+        if !found {
+            let all: Vec<&str> = meshes.iter().map(|m| m.name.as_str()).collect();
+            bail!("{}: no mesh '{}' (meshes: {})", file.display(), engine::io::excerpt(n), all.join(", "));
+        }
+    }
+    Ok(out)
+}
+
+/// The camera of a composition: fixed, framed, or a model's glTF camera.
+fn choose_camera(
+    setup: &CameraSetup,
+    cameras: &[(Mat4, PathBuf, Vec<GltfCamera>)],
+    lo: Vec3,
+    hi: Vec3,
+) -> Result<Camera> {
+    let framed = || framing_camera(lo, hi);
+    let (model, key) = match setup {
+        CameraSetup::Auto => return Ok(framed()),
+        CameraSetup::Fixed(c) => return Ok(*c),
+        CameraSetup::File { model, key } => (*model, key.as_ref()),
+    };
+    let candidates: Vec<usize> = match model {
+        Some(m) => {
+            ensure!(m < cameras.len(), "camera.model: {m} is not a model index (the scene has {})", cameras.len());
+            vec![m]
+        }
+        None => (0..cameras.len()).collect(),
+    };
+    let found = candidates.iter().find_map(|&m| {
+        let list = &cameras[m].2;
+        match key {
+            None => list.first(),
+            Some(k) => k.find(list),
+        }
+        .map(|c| (m, c))
+    });
+    let Some((m, cam)) = found else {
+        let Some(k) = key else { return Ok(framed()) };
+        let listed: Vec<String> = candidates.iter().flat_map(|&m| cameras[m].2.iter().map(|c| c.label())).collect();
+        let files: Vec<String> = candidates.iter().map(|&m| cameras[m].1.display().to_string()).collect();
+        if listed.is_empty() {
+            bail!("camera {k}: {} has no cameras (use auto)", files.join(", "));
+        }
+        bail!("camera {k}: no such camera in {} (cameras: {})", files.join(", "), listed.join(", "));
+    };
+    let (placement, file) = (cameras[m].0, &cameras[m].1);
+    let center = 0.5 * (lo + hi);
+    let eye = (placement * cam.world).transform_point3(Vec3::ZERO);
+    let forward = (placement * cam.world).transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    let focus = (center - eye).dot(forward).max(0.1 * (hi - lo).length());
+    cam.view(placement, focus).map_err(|e| anyhow!("{}: {e}", file.display()))
+}
+
 /// Build the scene: meshes, skins and bones of every model (joint indices offset into one bone list), the
-/// ground, camera, and blocker spheres (fitted with progress on stderr, or loaded and checked against their mesh).
+/// ground, camera, lights, and blocker spheres (fitted with progress on stderr, or loaded and checked against their
+/// mesh).
 pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
     let mut scene = Scene {
         meshes: Vec::new(),
@@ -275,6 +527,11 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
     };
     let mut player = ClipPlayer::default();
     let mut sphere_jobs: Vec<(usize, Blockers, usize, PathBuf)> = Vec::new();
+    // Per scene mesh: `Some(true)` the scene file lists it as a receiver, `Some(false)` it does not; `None`: the
+    // model's floors only receive.
+    let mut listed_receivers: Vec<Option<bool>> = Vec::new();
+    let mut cameras = Vec::new();
+    let mut file_lights = Vec::new();
     for p in c.models {
         let m = p.model;
         let (mesh_base, material_base) = (scene.meshes.len(), scene.materials.len());
@@ -289,6 +546,7 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
             }
             (None, None) => scene.materials.extend(&m.materials),
         }
+        let receivers = p.receivers.as_ref().map(|r| named_meshes(&m.meshes, r, &p.file)).transpose()?;
         for (k, mut mesh) in m.meshes.into_iter().enumerate() {
             if let Some(map) = &p.map {
                 map.apply(&mut mesh);
@@ -302,6 +560,7 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
             });
             scene.blockers.skins.push(skin);
             sphere_jobs.push((mesh_base + k, p.blockers.clone(), k, p.file.clone()));
+            listed_receivers.push(receivers.as_ref().map(|r| r[k]));
         }
         for inst in &m.instances {
             scene.instances.push(Instance {
@@ -312,6 +571,10 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
         }
         let rest = m.rig.pose(None, 0.0);
         scene.blockers.bones.extend(&rest.bones);
+        cameras.push((p.transform, p.file.clone(), m.cameras));
+        if let Some(params) = p.lights {
+            file_lights.push((p.transform, p.file.clone(), params, m.lights));
+        }
         player.models.push(PlacedRig {
             rig: m.rig,
             placement: p.transform,
@@ -322,15 +585,58 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
     }
     player.bone_count = scene.blockers.bones.len();
     ensure!(!scene.instances.is_empty(), "the scene has no models");
-    let (lo, hi) = posed_bounds(&scene);
-    ensure!(lo.is_finite() && hi.is_finite(), "the models' bounds are not finite");
-    scene.camera = c.camera.unwrap_or_else(|| framing_camera(lo, hi));
+    let (all_lo, all_hi) = posed_bounds(&scene);
+    ensure!(all_lo.is_finite() && all_hi.is_finite(), "the models' bounds are not finite");
+    // The models' own floors: they only receive (a flat floor encloses nothing to fit spheres to), a rectangle
+    // one blocks as the engine's ground does (a plane blocker), and the framing and ground ignore them.
+    let floors = find_floors(&scene);
+    let receive_only: Vec<bool> = listed_receivers.iter().zip(&floors).map(|(l, f)| l.unwrap_or(*f)).collect();
+    let (lo, hi) = match bounds_of(&scene, |m| !floors[m]) {
+        (lo, hi) if lo.is_finite() && hi.is_finite() => (lo, hi),
+        _ => (all_lo, all_hi),
+    };
+    scene.camera = choose_camera(&c.camera, &cameras, lo, hi)?;
     scene.blockers.spheres = vec![None; scene.meshes.len()];
     scene.blockers.plane_meshes = vec![false; scene.meshes.len()];
     for (mesh, blockers, k, file) in sphere_jobs {
+        if receive_only[mesh] {
+            if floors[mesh] && is_rectangle(&scene, mesh) {
+                scene.blockers.plane_meshes[mesh] = true;
+            }
+            log::info!(
+                "{}: mesh '{}' only receives (a floor, or listed in `receivers`): no blocker spheres{}",
+                file.display(),
+                scene.meshes[mesh].name,
+                if scene.blockers.plane_meshes[mesh] { "; it blocks as a plane" } else { "" }
+            );
+            continue;
+        }
         scene.blockers.spheres[mesh] = spheres_of(&scene.meshes[mesh], &blockers, k, &file, opts)?;
     }
-    if let Some(ground) = c.ground {
+    let (center, radius) = (0.5 * (all_lo + all_hi), 0.5 * (all_hi - all_lo).length());
+    for (placement, file, params, lights) in file_lights {
+        let scale = placement.to_scale_rotation_translation().0.abs().max_element();
+        for l in &lights {
+            if l.range.is_some() {
+                log::warn!(
+                    "{}: {}: its range is ignored (spherical lights have no cut-off)",
+                    file.display(),
+                    l.label()
+                );
+            }
+            let light = l
+                .sphere_light(placement, scale, &params, center, radius)
+                .map_err(|e| anyhow!("{}: {e}", file.display()))?;
+            scene.lights.push(light);
+        }
+    }
+    let has_floor = floors.iter().any(|&f| f);
+    let ground = match c.ground_mode {
+        GroundMode::None => None,
+        GroundMode::Auto if has_floor => None,
+        GroundMode::Auto | GroundMode::Engine => c.ground,
+    };
+    if let Some(ground) = ground {
         let center = 0.5 * (lo + hi);
         let half = (0.5 * (hi - lo).max_element()).max(0.5) * 2.0;
         let mut plane = shapes::ground_plane(half, ground.subdivisions.clamp(1, MAX_GROUND_SUBDIVISIONS));
@@ -345,7 +651,7 @@ pub fn assemble(c: Composition, opts: &UserOptions) -> Result<UserScene> {
         scene.meshes.push(plane);
         scene.instances.push(Instance {
             mesh: scene.meshes.len() - 1,
-            transform: Mat4::from_translation(Vec3::new(center.x, lo.y, center.z)),
+            transform: Mat4::from_translation(Vec3::new(center.x, all_lo.y, center.z)),
             material,
         });
         scene.blockers.spheres.push(None);
@@ -447,13 +753,20 @@ pub fn single_model(path: &Path, env: Option<&Path>, assets: &Path, opts: &UserO
             map: None,
             blockers: Blockers::Fit(opts.spheres.unwrap_or(DEFAULT_SPHERES)),
             choice,
+            lights: Some(LightParams::default()),
+            receivers: None,
         }],
         environment: default_environment(env, assets)?,
         environment_intensity: 1.0,
         env_lights: Default::default(),
         lights: Vec::new(),
-        camera: None,
+        camera: match &opts.camera {
+            None => CameraSetup::File { model: Some(0), key: None },
+            Some(CameraChoice::Auto) => CameraSetup::Auto,
+            Some(CameraChoice::File(k)) => CameraSetup::File { model: Some(0), key: Some(k.clone()) },
+        },
         ground: Some(Ground::plain(Material::diffuse(Vec3::splat(0.6)))),
+        ground_mode: opts.ground.unwrap_or(GroundMode::Auto),
     };
     assemble(composition, opts)
 }
@@ -473,17 +786,28 @@ pub struct SceneFile {
     pub model: Vec<ModelSpec>,
 }
 
+/// `[camera]`: `eye` and `target` (and `fov_y`), or a camera of a model's glTF file (`model`, `name`), or
+/// `auto = true` (framed).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
-    pub eye: [f32; 3],
-    pub target: [f32; 3],
-    #[serde(default = "default_fov")]
-    pub fov_y: f32,
+    pub eye: Option<[f32; 3]>,
+    pub target: Option<[f32; 3]>,
+    pub fov_y: Option<f32>,
+    /// The model whose glTF camera to use (an index into `[[model]]`; default: the first model that has it).
+    pub model: Option<usize>,
+    /// The glTF camera: its index in the file's `cameras` or its name (default: the file's first camera).
+    pub name: Option<CameraName>,
+    /// `true`: framed automatically (as with no `[camera]`).
+    pub auto: Option<bool>,
 }
 
-fn default_fov() -> f32 {
-    45.0
+/// `camera.name`: an index into a glTF file's `cameras`, or a camera's (or its node's) name.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(untagged)]
+pub enum CameraName {
+    Index(i64),
+    Name(String),
 }
 
 #[derive(Debug, Deserialize)]
@@ -549,6 +873,8 @@ impl EnvironmentSpec {
 pub struct GroundSpec {
     #[serde(default = "yes")]
     pub visible: bool,
+    /// `"auto"` (default: the engine's ground unless a model brings a floor), `"engine"` or `"none"`.
+    pub mode: Option<String>,
     pub material: Option<MaterialSpec>,
     /// Quads per side (default 16, at most 512). Signed, so that a negative value gets the range's message.
     pub subdivisions: Option<i64>,
@@ -611,6 +937,17 @@ pub struct ModelSpec {
     pub sphere_files: Option<Vec<String>>,
     /// The clip to play (`"all"`: every clip in turn, the default; `"none"`: stay at rest).
     pub clip: Option<String>,
+    /// Whether the file's `KHR_lights_punctual` lights are used (default true).
+    pub lights: Option<bool>,
+    /// Every point light's radius (file units, > 0), instead of the nodes' `extras.radius` or 0.1.
+    pub light_radius: Option<f32>,
+    /// Multiplies the file's light intensities (default 1: engine radiance = nits / 683).
+    pub light_intensity: Option<f32>,
+    /// Directional lights' angular radius in degrees, (0, 45] (default 0.27, the sun's).
+    pub light_angle: Option<f32>,
+    /// Meshes that only receive: no blocker spheres (names as `name#primitive` or the glTF mesh's name). Default:
+    /// the model's floor, if found.
+    pub receivers: Option<Vec<String>>,
 }
 
 fn unit_scale() -> [f32; 3] {
@@ -740,7 +1077,21 @@ fn build_scene_file(
             (None, Some("none")) => ClipChoice::Still,
             (None, Some(name)) => ClipChoice::One(model.rig.clip_index(name).map_err(|e| anyhow!("{key}.clip: {e}"))?),
         };
-        models.push(Placement { model, file, transform, material, map, blockers, choice });
+        let lights = match m.lights {
+            Some(false) => None,
+            _ => Some(light_params(m, &key)?),
+        };
+        models.push(Placement {
+            model,
+            file,
+            transform,
+            material,
+            map,
+            blockers,
+            choice,
+            lights,
+            receivers: m.receivers.clone(),
+        });
     }
     ensure!(clip_found, "--clip {}: no model of the scene has that clip", opts.clip.as_deref().unwrap_or(""));
     let (mut environment, mut intensity, mut env_lights) = (None, 1.0, EnvLightParams::default());
@@ -783,16 +1134,17 @@ fn build_scene_file(
         limits::LIGHT_RADIANCE.check_key(&format!("light[{i}].radiance"), &l.radiance.map(f64::from))?;
         lights.push(SphereLight { center: l.center.into(), radius: l.radius, radiance: l.radiance.into() });
     }
-    let camera = match &spec.camera {
-        Some(c) => {
-            limits::CAMERA_EYE.check_key("camera.eye", &c.eye.map(f64::from))?;
-            limits::CAMERA_TARGET.check_key("camera.target", &c.target.map(f64::from))?;
-            limits::CAMERA_FOV_Y.check_key("camera.fov_y", &[c.fov_y as f64])?;
-            ensure!(Vec3::from(c.eye) != Vec3::from(c.target), "camera: eye and target are the same point");
-            Some(Camera { eye: c.eye.into(), target: c.target.into(), fov_y_degrees: c.fov_y })
-        }
-        None => None,
+    let camera = match (&opts.camera, &spec.camera) {
+        (Some(CameraChoice::Auto), _) => CameraSetup::Auto,
+        (Some(CameraChoice::File(k)), _) => CameraSetup::File { model: None, key: Some(k.clone()) },
+        (None, Some(c)) => camera_setup(c, spec.model.len())?,
+        (None, None) => CameraSetup::Auto,
     };
+    let mut ground_mode = GroundMode::Auto;
+    if let Some(m) = spec.ground.as_ref().and_then(|g| g.mode.as_deref()) {
+        ground_mode = m.parse().map_err(|e| anyhow!("ground.mode: {e}"))?;
+    }
+    let ground_mode = opts.ground.unwrap_or(ground_mode);
     let ground = match &spec.ground {
         Some(g) if !g.visible => None,
         Some(g) => {
@@ -808,9 +1160,75 @@ fn build_scene_file(
         }
         None => Some(Ground::plain(Material::diffuse(Vec3::splat(0.6)))),
     };
-    let composition =
-        Composition { models, environment, environment_intensity: intensity, env_lights, lights, camera, ground };
+    let composition = Composition {
+        models,
+        environment,
+        environment_intensity: intensity,
+        env_lights,
+        lights,
+        camera,
+        ground,
+        ground_mode,
+    };
     assemble(composition, opts)
+}
+
+/// `[camera]` of a scene file with `models` models.
+fn camera_setup(c: &CameraSpec, models: usize) -> Result<CameraSetup> {
+    let file = c.model.is_some() || c.name.is_some();
+    let fixed = c.eye.is_some() || c.target.is_some() || c.fov_y.is_some();
+    match (c.auto, file, fixed) {
+        (Some(true), false, false) => return Ok(CameraSetup::Auto),
+        (Some(_), _, _) => bail!("camera.auto: give `auto = true` alone (or leave [camera] out)"),
+        (None, true, true) => {
+            bail!("camera: give `eye`/`target`/`fov_y` or a model's camera (`model`, `name`), not both")
+        }
+        _ => {}
+    }
+    if file {
+        if let Some(m) = c.model {
+            ensure!(m < models, "camera.model: {m} is not a model index (the scene has {models})");
+        }
+        let key = match &c.name {
+            None => None,
+            Some(CameraName::Index(i)) => {
+                ensure!(*i >= 0, "camera.name: {i} is not a camera index");
+                Some(CameraKey::Index(*i as usize))
+            }
+            Some(CameraName::Name(n)) => Some(CameraKey::Name(n.clone())),
+        };
+        // A model named without a camera name takes that model's first camera, and must have one.
+        return Ok(CameraSetup::File { model: c.model, key: Some(key.unwrap_or(CameraKey::First)) });
+    }
+    let (Some(eye), Some(target)) = (c.eye, c.target) else {
+        bail!("camera: give both `eye` and `target` (or `model`/`name` for a model's camera, or `auto = true`)");
+    };
+    let fov = c.fov_y.unwrap_or(45.0);
+    limits::CAMERA_EYE.check_key("camera.eye", &eye.map(f64::from))?;
+    limits::CAMERA_TARGET.check_key("camera.target", &target.map(f64::from))?;
+    limits::CAMERA_FOV_Y.check_key("camera.fov_y", &[fov as f64])?;
+    let ok = eye.iter().chain(&target).all(|x| x.is_finite()) && fov > 1.0 && fov < 179.0;
+    ensure!(ok, "camera: eye and target must be finite and fov_y in (1, 179) degrees");
+    ensure!(Vec3::from(eye) != Vec3::from(target), "camera: eye and target are the same point");
+    Ok(CameraSetup::Fixed(Camera { eye: eye.into(), target: target.into(), fov_y_degrees: fov }))
+}
+
+/// A model's light keys (`lights`, `light_radius`, `light_intensity`, `light_angle`) as [`LightParams`].
+fn light_params(m: &ModelSpec, key: &str) -> Result<LightParams> {
+    let mut p = LightParams::default();
+    if let Some(r) = m.light_radius {
+        ensure!(r.is_finite() && r > 0.0 && r < 1e6, "{key}.light_radius: {r} is not in (0, 1e6)");
+        p.radius_override = Some(r);
+    }
+    if let Some(i) = m.light_intensity {
+        ensure!(i.is_finite() && (0.0..=1e9).contains(&i), "{key}.light_intensity: {i} is not in [0, 1e9]");
+        p.exposure *= i;
+    }
+    if let Some(a) = m.light_angle {
+        ensure!(a.is_finite() && a > 0.0 && a <= 45.0, "{key}.light_angle: {a}° is not in (0, 45]");
+        p.directional_angle_degrees = a;
+    }
+    Ok(p)
 }
 
 /// Build `--scene SPEC` when it names a file.

@@ -17,9 +17,13 @@
 //!
 //! Refused, each with an error naming the file and the feature: morph targets (and animations of their weights),
 //! any extension the file lists as required, and extensions that change geometry even when only used
-//! ([`GEOMETRY_EXTENSIONS`]). Textures, cameras and lights in the file are ignored.
+//! ([`GEOMETRY_EXTENSIONS`]).
+//!
+//! Cameras ([`GltfCamera`]) and `KHR_lights_punctual` lights ([`GltfLight`]) of the default scene's nodes are read
+//! with their nodes' world transforms at rest; the scene builder chooses a camera and turns the lights into
+//! spherical lights ([`GltfLight::sphere_light`], units in its docs). Textures are ignored.
 
-use super::{Instance, Material, Mesh, Result, SceneError, Skin};
+use super::{Camera, Instance, Material, Mesh, Result, SceneError, Skin, SphereLight};
 use engine_io::excerpt;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::collections::HashMap;
@@ -39,6 +43,210 @@ pub struct GltfScene {
     pub skins: Vec<Option<Skin>>,
     /// Nodes, bones and animation clips: what poses the instances and bones over time.
     pub rig: Rig,
+    /// Camera nodes of the default scene, in the order the scene reaches them.
+    pub cameras: Vec<GltfCamera>,
+    /// `KHR_lights_punctual` light nodes of the default scene, in the order the scene reaches them.
+    pub lights: Vec<GltfLight>,
+}
+
+/// A camera node of the file (glTF 2.0 §3.10), at rest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GltfCamera {
+    /// Index into the file's `cameras`.
+    pub camera: usize,
+    /// The camera's name (empty if none).
+    pub name: String,
+    /// The node that holds it, and the node's name (empty if none).
+    pub node: usize,
+    pub node_name: String,
+    /// Vertical field of view in degrees; `None` for an orthographic camera (refused when chosen).
+    pub fov_y_degrees: Option<f32>,
+    /// The node's world transform at rest (the camera looks down its −z, +y up).
+    pub world: Mat4,
+}
+
+/// The kind of a `KHR_lights_punctual` light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Intensity in candela (lm/sr).
+    Point,
+    /// Intensity in candela; cone angles in radians. Refused by [`GltfLight::sphere_light`].
+    Spot { inner_cone: f32, outer_cone: f32 },
+    /// Illuminance in lux (lm/m²) on a surface facing it; the light travels along the node's −z.
+    Directional,
+}
+
+/// A `KHR_lights_punctual` light on a node, at rest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GltfLight {
+    /// Index into the extension's `lights`.
+    pub light: usize,
+    /// The light's name (empty if none).
+    pub name: String,
+    pub node: usize,
+    pub kind: LightKind,
+    /// Linear RGB, each ≥ 0.
+    pub color: Vec3,
+    /// Candela (point, spot) or lux (directional), ≥ 0.
+    pub intensity: f32,
+    /// `extras.radius` of the node (else of the light): the sphere's radius in the file's units, > 0.
+    pub radius: Option<f32>,
+    /// The glTF `range` (ignored: spherical lights fall off as the inverse square, with no cut-off).
+    pub range: Option<f32>,
+    /// The node's world transform at rest (the light sits at its origin and points down its −z).
+    pub world: Mat4,
+}
+
+/// Engine radiance per nit (cd/m²) of a file light: 1/683 W/lm. Blender's exporter (lighting mode "Standard")
+/// writes its watts × 683 (/4π for point and spot lights), so this exposure gives back Blender's own radiometric
+/// values, the units in which an environment map at intensity 1 and Blender's lights are balanced.
+pub const PHOTOMETRIC_EXPOSURE: f32 = 1.0 / 683.0;
+/// Radius of a point light's sphere (file units, metres in glTF) when neither the node's `extras.radius` nor the
+/// scene file gives one.
+pub const DEFAULT_POINT_RADIUS: f32 = 0.1;
+/// Angular radius of a directional light's sphere unless the scene file says otherwise: the sun's, 0.27°.
+pub const DEFAULT_DIRECTIONAL_ANGLE_DEGREES: f32 = 0.27;
+/// A directional light's sphere sits this many scene radii from the scene's centre (its direction then varies by
+/// at most 1/1000 rad, a fifth of the sun's angular radius, across the scene).
+pub const DIRECTIONAL_DISTANCE: f32 = 1000.0;
+
+/// How file lights become spherical lights ([`GltfLight::sphere_light`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightParams {
+    /// Engine radiance per nit ([`PHOTOMETRIC_EXPOSURE`] by default).
+    pub exposure: f32,
+    /// Point lights' radius when the node has no `extras.radius` ([`DEFAULT_POINT_RADIUS`]).
+    pub default_radius: f32,
+    /// Every point light's radius, whatever the file says (a scene file's `light_radius`).
+    pub radius_override: Option<f32>,
+    /// Directional lights' angular radius in degrees ([`DEFAULT_DIRECTIONAL_ANGLE_DEGREES`]).
+    pub directional_angle_degrees: f32,
+}
+
+impl Default for LightParams {
+    fn default() -> Self {
+        Self {
+            exposure: PHOTOMETRIC_EXPOSURE,
+            default_radius: DEFAULT_POINT_RADIUS,
+            radius_override: None,
+            directional_angle_degrees: DEFAULT_DIRECTIONAL_ANGLE_DEGREES,
+        }
+    }
+}
+
+impl GltfCamera {
+    /// Whether `key` names this camera: its name, or its node's name.
+    pub fn is_named(&self, key: &str) -> bool {
+        (!self.name.is_empty() && self.name == key) || (!self.node_name.is_empty() && self.node_name == key)
+    }
+
+    /// How messages name it: `camera 2 ('Main')`.
+    pub fn label(&self) -> String {
+        let name = if self.name.is_empty() { &self.node_name } else { &self.name };
+        format!("camera {} ('{}')", self.camera, excerpt(name))
+    }
+
+    /// The engine camera of this glTF camera placed by `placement`: the eye at the node's origin, looking down its
+    /// −z, the target `focus` away along it (for orbiting viewers). The engine keeps +y up: a rolled camera is
+    /// levelled (with a warning). An orthographic camera is an error.
+    pub fn view(&self, placement: Mat4, focus: f32) -> std::result::Result<Camera, String> {
+        let fov = self.fov_y_degrees.ok_or_else(|| {
+            format!(
+                "{} is orthographic: only perspective cameras are supported (--camera auto frames the model)",
+                self.label()
+            )
+        })?;
+        if !(fov > 1.0 && fov < 179.0) {
+            return Err(format!("{}: its yfov is {fov}° (the engine takes (1, 179))", self.label()));
+        }
+        let world = placement * self.world;
+        let eye = world.transform_point3(Vec3::ZERO);
+        let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+        if !eye.is_finite() || forward == Vec3::ZERO || !forward.is_finite() {
+            return Err(format!("{}: its node's transform gives no view direction", self.label()));
+        }
+        let camera = Camera { eye, target: eye + forward * focus.max(1e-3), fov_y_degrees: fov };
+        let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+        let (_, level_up, _) = camera.basis();
+        let roll = up.dot(level_up).clamp(-1.0, 1.0).acos().to_degrees();
+        if roll > 1.0 {
+            log::warn!("{} is rolled by {roll:.1}°: the engine keeps +y up, so its view is levelled", self.label());
+        }
+        Ok(camera)
+    }
+}
+
+impl GltfLight {
+    /// How messages name it: `light 1 ('Lamp')`.
+    pub fn label(&self) -> String {
+        format!("light {} ('{}')", self.light, excerpt(&self.name))
+    }
+
+    /// The spherical light of this light placed by `placement` (a rigid transform with uniform `scale`), in a scene
+    /// whose models have their centre at `center` and bounding radius `radius`.
+    ///
+    /// - Point, intensity I (cd): a sphere of radius r (`radius_override`, else the node's `extras.radius`, else
+    ///   `default_radius`; times `scale`) at the node's origin, of radiance `I / (π r²)`: seen from afar it gives
+    ///   the same illuminance `I / d²` as the point.
+    /// - Directional, illuminance E (lux): a sphere of angular radius α ([`LightParams::directional_angle_degrees`])
+    ///   [`DIRECTIONAL_DISTANCE`] scene radii away along the node's +z, of radiance `E / (π sin² α)`: the
+    ///   illuminance on a surface facing it is E.
+    /// - Spot: an error (the techniques have no cone falloff).
+    ///
+    /// Radiance is multiplied by the colour and by `exposure` (engine radiance per nit).
+    pub fn sphere_light(
+        &self,
+        placement: Mat4,
+        scale: f32,
+        params: &LightParams,
+        center: Vec3,
+        radius: f32,
+    ) -> std::result::Result<SphereLight, String> {
+        let world = placement * self.world;
+        let rgb = self.color * self.intensity * params.exposure;
+        let light = match self.kind {
+            LightKind::Spot { .. } => {
+                return Err(format!(
+                    "{} is a spot light: spot cones are not supported (no technique has a cone falloff); drop the \
+                     file's lights with a scene file: [[model]] file = \"<this file>\" lights = false \
+                     (docs/scene-files.md)",
+                    self.label()
+                ))
+            }
+            LightKind::Point => {
+                let r = params.radius_override.or(self.radius).unwrap_or(params.default_radius) * scale;
+                SphereLight {
+                    center: world.transform_point3(Vec3::ZERO),
+                    radius: r,
+                    radiance: rgb / (std::f32::consts::PI * r * r),
+                }
+            }
+            LightKind::Directional => {
+                let to_light = world.transform_vector3(Vec3::Z).normalize_or_zero();
+                if to_light == Vec3::ZERO {
+                    return Err(format!("{}: its node's transform gives no direction", self.label()));
+                }
+                let alpha = params.directional_angle_degrees.to_radians();
+                let distance = DIRECTIONAL_DISTANCE * radius.max(1e-3);
+                let sin = alpha.sin();
+                SphereLight {
+                    center: center + to_light * distance,
+                    radius: distance * sin,
+                    radiance: rgb / (std::f32::consts::PI * sin * sin),
+                }
+            }
+        };
+        let ok = light.center.is_finite() && light.radius.is_finite() && light.radius > 0.0;
+        if !ok || !light.radiance.is_finite() || light.radiance.min_element() < 0.0 {
+            return Err(format!(
+                "{}: its sphere is not finite (centre {}, radius {})",
+                self.label(),
+                light.center,
+                light.radius
+            ));
+        }
+        Ok(light)
+    }
 }
 
 /// One node of the file's hierarchy.
@@ -302,6 +510,7 @@ pub(super) fn read(
             pbr.roughness_factor(),
         ));
     }
+    warn_unread_material_parts(path, doc);
     let default_material = out.materials.len();
     out.materials.push(Material::diffuse(Vec3::splat(0.8)));
 
@@ -364,10 +573,17 @@ pub(super) fn read(
     // Depth-first in file order (meshes and instances come out in the order the file lists them).
     let mut stack: Vec<gltf::Node> = scene.nodes().collect();
     stack.reverse();
+    let (mut camera_nodes, mut light_nodes) = (Vec::new(), Vec::new());
     while let Some(node) = stack.pop() {
         let at = stack.len();
         stack.extend(node.children());
         stack[at..].reverse();
+        if let Some(c) = node.camera() {
+            camera_nodes.push((node.index(), c.index()));
+        }
+        if let Some(l) = node.light() {
+            light_nodes.push((node.index(), l.index()));
+        }
         let Some(mesh) = node.mesh() else { continue };
         for (pi, prim) in mesh.primitives().enumerate() {
             if prim.mode() != gltf::mesh::Mode::Triangles {
@@ -416,14 +632,132 @@ pub(super) fn read(
         rig.clips.push(read_clip(path, &anim, get)?);
     }
     let rest = rig.pose(None, 0.0);
+    let rest_world = rig.world_transforms(None, 0.0);
     for (inst, m) in out.instances.iter_mut().zip(&rest.instance_transforms) {
         if !m.is_finite() {
             return Err(bad("a node's world transform is not finite".into()));
         }
         inst.transform = *m;
     }
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
+    for (node, c) in camera_nodes {
+        let Some(cam) = doc.cameras().nth(c) else { continue };
+        let fov_y_degrees = match cam.projection() {
+            gltf::camera::Projection::Perspective(p) => Some(p.yfov().to_degrees()),
+            gltf::camera::Projection::Orthographic(_) => None,
+        };
+        out.cameras.push(GltfCamera {
+            camera: c,
+            name: cam.name().unwrap_or("").to_string(),
+            node,
+            node_name: nodes[node].name().unwrap_or("").to_string(),
+            fov_y_degrees,
+            world: rest_world[node],
+        });
+    }
+    let lights: Vec<gltf::khr_lights_punctual::Light> = doc.lights().map(|l| l.collect()).unwrap_or_default();
+    for (node, l) in light_nodes {
+        let Some(light) = lights.get(l) else { continue };
+        out.lights.push(read_light(light, &nodes[node], rest_world[node]).map_err(bad)?);
+    }
     out.rig = rig;
     Ok(out)
+}
+
+/// One warning per file naming what its materials have that the importer does not read (textures, emission,
+/// alpha modes): a textured model renders in its factors' colours, and the user should know why.
+fn warn_unread_material_parts(path: &Path, doc: &gltf::Document) {
+    let mut parts: Vec<String> = Vec::new();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let mut has = Vec::new();
+        if pbr.base_color_texture().is_some() {
+            has.push("baseColorTexture");
+        }
+        if pbr.metallic_roughness_texture().is_some() {
+            has.push("metallicRoughnessTexture");
+        }
+        if m.normal_texture().is_some() {
+            has.push("normalTexture");
+        }
+        if m.occlusion_texture().is_some() {
+            has.push("occlusionTexture");
+        }
+        if m.emissive_texture().is_some() || m.emissive_factor().iter().any(|&e| e > 0.0) {
+            has.push("emission");
+        }
+        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            has.push("alphaMode");
+        }
+        if !has.is_empty() {
+            parts.push(format!("'{}' ({})", excerpt(m.name().unwrap_or("")), has.join(", ")));
+        }
+    }
+    if !parts.is_empty() {
+        let shown = parts.len().min(4);
+        log::warn!(
+            "{}: {} material(s) use what the importer does not read (textures, emission, alpha): {}{}; they render \
+             with their base colour, metallic and roughness factors",
+            path.display(),
+            parts.len(),
+            parts[..shown].join(", "),
+            if parts.len() > shown { ", ..." } else { "" }
+        );
+    }
+}
+
+/// The number `extras.radius` of a node or light, if its extras are a JSON object with that key.
+fn extras_radius(extras: &gltf::json::Extras) -> std::result::Result<Option<f32>, String> {
+    let Some(raw) = extras else { return Ok(None) };
+    let value: gltf::json::Value = gltf::json::deserialize::from_str(raw.get()).map_err(|e| e.to_string())?;
+    match value.get("radius") {
+        None => Ok(None),
+        Some(r) => match r.as_f64() {
+            Some(r) if r.is_finite() && r > 0.0 && r < 1e30 => Ok(Some(r as f32)),
+            _ => Err(format!("extras.radius is {} (a number > 0 expected)", excerpt(&r.to_string()))),
+        },
+    }
+}
+
+/// One `KHR_lights_punctual` light on `node`, its values checked.
+fn read_light(
+    light: &gltf::khr_lights_punctual::Light,
+    node: &gltf::Node,
+    world: Mat4,
+) -> std::result::Result<GltfLight, String> {
+    let name = light.name().unwrap_or("").to_string();
+    let label = format!("light {} ('{}')", light.index(), excerpt(&name));
+    let color = Vec3::from(light.color());
+    if !color.is_finite() || color.min_element() < 0.0 {
+        return Err(format!("{label}: color {color} is not finite and ≥ 0"));
+    }
+    let intensity = light.intensity();
+    if !intensity.is_finite() || intensity < 0.0 {
+        return Err(format!("{label}: intensity {intensity} is not finite and ≥ 0"));
+    }
+    let kind = match light.kind() {
+        gltf::khr_lights_punctual::Kind::Point => LightKind::Point,
+        gltf::khr_lights_punctual::Kind::Directional => LightKind::Directional,
+        gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+            LightKind::Spot { inner_cone: inner_cone_angle, outer_cone: outer_cone_angle }
+        }
+    };
+    let node_radius = extras_radius(node.extras()).map_err(|e| format!("node {} ({label}): {e}", node.index()))?;
+    let radius = match node_radius {
+        Some(r) => Some(r),
+        None => extras_radius(light.extras()).map_err(|e| format!("{label}: {e}"))?,
+    };
+    Ok(GltfLight {
+        light: light.index(),
+        name,
+        node: node.index(),
+        kind,
+        color,
+        intensity,
+        radius,
+        range: light.range(),
+        world,
+    })
 }
 
 /// The [`Skin`] of one primitive: joint indices offset by `base` into the rig's bone list, checked and reduced to

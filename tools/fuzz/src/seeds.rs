@@ -61,7 +61,9 @@ fn gltf_json(buffer: &str) -> String {
 /// material; the buffer as a data URI.
 pub fn gltf() -> Vec<Vec<u8>> {
     let uri = format!(r#","uri":"data:application/octet-stream;base64,{}""#, base64::encode(gltf_buffer()));
-    vec![gltf_json(&uri).into_bytes()]
+    // The lit room (scenes::gltf_writer::lit_room): cameras, KHR_lights_punctual lights and node extras.
+    let room = include_bytes!("../../../examples/lit_room.gltf").to_vec();
+    vec![gltf_json(&uri).into_bytes(), room]
 }
 
 /// GLB: the glTF seed as a binary container (JSON chunk, BIN chunk).

@@ -82,6 +82,12 @@ struct Args {
     /// --reference-cache the time is part of the key (the motion and the cloth simulation are deterministic).
     #[arg(long)]
     time: Option<f32>,
+    /// File scenes: the glTF camera N or NAME, or `auto` (as `demo --camera`).
+    #[arg(long, value_name = "N|NAME|auto")]
+    camera: Option<scenes::user::CameraChoice>,
+    /// File scenes: `none`, `auto` or `engine` (as `demo --ground`).
+    #[arg(long, value_name = "none|auto|engine")]
+    ground: Option<scenes::user::GroundMode>,
     #[command(flatten)]
     env_lights: scenes::env_lights::EnvLightArgs,
     /// Measure one part of the environment split by the scene's settings (and the --env-lights* options), against a
@@ -115,7 +121,8 @@ fn main() {
 
 fn run() -> Result<()> {
     let args = Args::parse();
-    let mut scene = scenes::build(&args.scene, args.env.as_deref())?;
+    let opts = scenes::user::UserOptions { camera: args.camera.clone(), ground: args.ground, ..Default::default() };
+    let mut scene = scenes::load(&args.scene, args.env.as_deref(), &opts)?.scene;
     if let Some(m) = scene.materials.first_mut() {
         if let Some(s) = args.gloss {
             m.shininess = s;
