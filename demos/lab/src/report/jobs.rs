@@ -235,7 +235,12 @@ fn load_point(dirs: &[PathBuf], key: &str) -> Result<Option<(PathBuf, PointFile)
                 let file: PointFile =
                     ciborium::from_reader(&bytes[..]).with_context(|| format!("decoding {}", path.display()))?;
                 if file.format != POINT_FORMAT || file.key != key {
-                    bail!("{}: format {} key {}, expected format {POINT_FORMAT} key {key}", path.display(), file.format, file.key);
+                    bail!(
+                        "{}: format {} key {}, expected format {POINT_FORMAT} key {key}",
+                        path.display(),
+                        file.format,
+                        file.key
+                    );
                 }
                 return Ok(Some((folder, file)));
             }
@@ -271,7 +276,9 @@ pub fn merge(sweep: &Sweep, dirs: &[PathBuf], out: &Path) -> Result<Merged> {
         let label = spec.label().to_string();
         let mut refs: Option<Results> = None;
         let mut techs: Vec<Results> = Vec::new();
-        for p in all.iter().filter(|p| matches!(&p.part, Part::References { scene: s } | Part::Technique { scene: s, .. } if *s == scene)) {
+        for p in all.iter().filter(
+            |p| matches!(&p.part, Part::References { scene: s } | Part::Technique { scene: s, .. } if *s == scene),
+        ) {
             let key = point_key(sweep, p);
             let Some((folder, file)) = load_point(dirs, &key)? else {
                 missing.push(p.spec());
@@ -299,7 +306,12 @@ pub fn merge(sweep: &Sweep, dirs: &[PathBuf], out: &Path) -> Result<Merged> {
             continue;
         }
         let parts: Vec<&Results> = refs.iter().chain(&techs).collect();
-        let (w, h) = parts.iter().flat_map(|r| &r.images).map(|i| (i.width, i.height)).next().unwrap_or((sweep.width, sweep.height));
+        let (w, h) = parts
+            .iter()
+            .flat_map(|r| &r.images)
+            .map(|i| (i.width, i.height))
+            .next()
+            .unwrap_or((sweep.width, sweep.height));
         let mut page = SceneImages { scene: label.clone(), width: w, height: h, images: Vec::new() };
         let mut thumbs = Vec::new();
         for r in &parts {
@@ -336,7 +348,10 @@ pub fn merge_and_write(
     let merged = merge(sweep, dirs, out)?;
     let total = points(sweep).len();
     if !merged.missing.is_empty() {
-        eprintln!("{} of {total} points missing (none finished under their key in the given folders):", merged.missing.len());
+        eprintln!(
+            "{} of {total} points missing (none finished under their key in the given folders):",
+            merged.missing.len()
+        );
         for m in &merged.missing {
             eprintln!("  missing: {m}");
         }

@@ -152,4 +152,3 @@ pub struct Results {
     /// Upper + lower = whole, per scene and image (with `split_lighting`).
     pub linearity: Vec<LinearityCheck>,
 }
-

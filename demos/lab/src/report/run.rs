@@ -56,10 +56,16 @@ pub enum Part {
     All,
     /// The references of scene `scene` (index into the sweep's scenes): their rows, images, region rows and
     /// linearity checks. Converges them into the reference cache, where the scene's technique points find them.
-    References { scene: usize },
+    References {
+        scene: usize,
+    },
     /// One technique on one scene: its row, images, region rows and linearity check, against the scene's
     /// references (from the cache, or converged here when its reference point has not run yet).
-    Technique { scene: usize, shading: String, technique: String },
+    Technique {
+        scene: usize,
+        shading: String,
+        technique: String,
+    },
 }
 
 impl Part {
@@ -205,15 +211,21 @@ pub fn measure_part(gpu: &Gpu, sweep: &Sweep, out: &Path, part: &Part) -> Result
                 max_spp: sweep.max_spp,
                 samples_per_frame: sweep.samples_per_frame,
             };
-            let r =
-                measure::cached_reference(cache.as_deref(), &measure::file_stem(&label), &key(vis), vis, pixels, || {
+            let r = measure::cached_reference(
+                cache.as_deref(),
+                &measure::file_stem(&label),
+                &key(vis),
+                vis,
+                pixels,
+                || {
                     let images = match part {
                         Part::All => measured.iter().map(|(_, m)| m.hdr.clone()).collect(),
                         _ => every_technique(&scene, frames)?,
                     };
                     let against: Vec<&[f32]> = images.iter().map(Vec::as_slice).collect();
                     measure::converge_reference(gpu, &scene, &base, &run, &against)
-                })?;
+                },
+            )?;
             eprintln!(
                 "{label}: {} reference: {} spp, relative standard error {:.3} % ({}converged) in {:.1} s",
                 measure::visibility_name(vis),
@@ -241,35 +253,36 @@ pub fn measure_part(gpu: &Gpu, sweep: &Sweep, out: &Path, part: &Part) -> Result
                 Ok(png)
             };
         if refs_out {
-        let png =
-            keep(&mut thumbs, format!("{stem}-reference-triangles.png"), "reference (triangles)".into(), &tri.ldr)?;
-        page.images.push(PageImage {
-            label: "reference (triangles)".into(),
-            spec: "reference/triangles".into(),
-            group: "reference".into(),
-            ldr: tri.ldr.clone(),
-            png,
-            heat_triangles: None,
-            heat_spheres: None,
-        });
-        if let Some(s) = &sph {
-            let png = keep(&mut thumbs, format!("{stem}-reference-spheres.png"), "reference (spheres)".into(), &s.ldr)?;
-            let heat = keep(
-                &mut thumbs,
-                format!("{stem}-proxy-error.png"),
-                "proxy error |spheres − triangles|".into(),
-                &measure::heatmap(&s.hdr, &tri, w, h),
-            )?;
+            let png =
+                keep(&mut thumbs, format!("{stem}-reference-triangles.png"), "reference (triangles)".into(), &tri.ldr)?;
             page.images.push(PageImage {
-                label: "reference (spheres)".into(),
-                spec: "reference/spheres".into(),
+                label: "reference (triangles)".into(),
+                spec: "reference/triangles".into(),
                 group: "reference".into(),
-                ldr: s.ldr.clone(),
+                ldr: tri.ldr.clone(),
                 png,
-                heat_triangles: Some(heat),
+                heat_triangles: None,
                 heat_spheres: None,
             });
-        }
+            if let Some(s) = &sph {
+                let png =
+                    keep(&mut thumbs, format!("{stem}-reference-spheres.png"), "reference (spheres)".into(), &s.ldr)?;
+                let heat = keep(
+                    &mut thumbs,
+                    format!("{stem}-proxy-error.png"),
+                    "proxy error |spheres − triangles|".into(),
+                    &measure::heatmap(&s.hdr, &tri, w, h),
+                )?;
+                page.images.push(PageImage {
+                    label: "reference (spheres)".into(),
+                    spec: "reference/spheres".into(),
+                    group: "reference".into(),
+                    ldr: s.ldr.clone(),
+                    png,
+                    heat_triangles: Some(heat),
+                    heat_spheres: None,
+                });
+            }
         }
         for (shading, m) in &measured {
             let name = format!("{stem}-{shading}-{}", measure::file_stem(&m.spec));
@@ -361,16 +374,16 @@ pub fn measure_part(gpu: &Gpu, sweep: &Sweep, out: &Path, part: &Part) -> Result
             });
         }
         if refs_out {
-        results.rows.push(Row {
-            scene: label.clone(),
-            shading: "pixel".into(),
-            technique: "reference/triangles".into(),
-            shade_ms: tri.ms_per_sample * tri.report.samples as f64,
-            frame_ms: f64::NAN,
-            vs_triangles: None,
-            vs_spheres: sph.as_ref().map(|s| between(&tri, s)),
-            representation: None,
-        });
+            results.rows.push(Row {
+                scene: label.clone(),
+                shading: "pixel".into(),
+                technique: "reference/triangles".into(),
+                shade_ms: tri.ms_per_sample * tri.report.samples as f64,
+                frame_ms: f64::NAN,
+                vs_triangles: None,
+                vs_spheres: sph.as_ref().map(|s| between(&tri, s)),
+                representation: None,
+            });
         }
 
         // The error by region (objects, found exactly in the G-buffer) and by lighting (upper and lower
