@@ -120,7 +120,11 @@ impl ReferenceImage {
         for half in [&self.halves.a, &self.halves.b] {
             b.extend(half.iter().flatten().flat_map(|v| v.to_le_bytes()));
         }
-        std::fs::write(path, b).with_context(|| format!("writing {}", path.display()))
+        // Written beside and renamed into place, so that a reader (another job of a sweep run in parallel,
+        // docs/sweeps.md) never reads a half-written file under the final name.
+        let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
+        std::fs::write(&tmp, b).with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
     }
 
     /// Read a file written by [`ReferenceImage::save`]; `pixels` must match.
@@ -357,7 +361,7 @@ fn reference_image(
 }
 
 /// Errors of an image against a reference (over the reference's covered pixels).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Errors {
     /// Relative RMSE, %.
     pub rmse: f64,

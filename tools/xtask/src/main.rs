@@ -25,6 +25,8 @@ const APT_PACKAGES: &[&str] = &[
     "x11-apps",
     // The results page's browser test (tools/xtask/tests/results_page.rs) drives it headless.
     "chromium",
+    // The sweep-as-jobs test runs a job file with GNU parallel (demos/lab/tests/jobs.rs, docs/sweeps.md).
+    "parallel",
 ];
 
 pub(crate) fn root() -> PathBuf {

@@ -19,8 +19,11 @@
 //!
 //! The module is split by what each part does, lowest first: [`sweep`] (the definition), [`results`] (what was
 //! measured), [`run`] (measuring), [`write`] (the CSV files, plots and plain README) and [`page`] (the results page
-//! of a sweep with a site). [`run()`] below runs them in that order; no part imports a later one.
+//! of a sweep with a site). [`run()`] below runs them in that order; no part imports a later one. [`jobs`], last,
+//! runs a sweep as one shell command per point on existing engines (GNU parallel, Slurm, xargs: docs/sweeps.md)
+//! and merges the finished points through the same writers.
 
+pub mod jobs;
 pub mod page;
 pub mod results;
 pub mod run;
@@ -40,23 +43,31 @@ use std::path::Path;
 pub fn run(gpu: &Gpu, sweep: &Sweep, out: &Path, command: &str) -> Result<Results> {
     let t0 = std::time::Instant::now();
     let results = run::measure(gpu, sweep, out)?;
+    write_outputs(out, sweep, &results, &gpu.info.name, command)?;
+    eprintln!("in {:.0} s", t0.elapsed().as_secs_f64());
+    Ok(results)
+}
+
+/// Write the files of a measured sweep into `out`: the CSV files and plots, then the results page (a sweep with a
+/// site) or a plain README (naming `device`). The single-process run and the merge of a sweep run as jobs
+/// ([`jobs::merge`]) both write through here.
+pub fn write_outputs(out: &Path, sweep: &Sweep, results: &Results, device: &str, command: &str) -> Result<()> {
     let write_images = sweep.site.is_none();
     write_csv(&out.join("results.csv"), &results.rows)?;
     write_regions_csv(&out.join("regions.csv"), &results.regions)?;
     write::write_plots(out, &results.rows)?;
     match &sweep.site {
-        Some(site) => page::write(out, sweep, site, &results, &gpu.info.name, command)?,
+        Some(site) => page::write(out, sweep, site, results, device, command)?,
         None => {
-            let readme = write::readme(gpu, sweep, &results);
+            let readme = write::readme(device, sweep, results);
             std::fs::write(out.join("README.md"), readme)
                 .with_context(|| format!("writing {}/README.md", out.display()))?;
         }
     }
     eprintln!(
-        "wrote {}/results.csv, regions.csv, pareto*.svg, decomposition*.svg, README.md{} in {:.0} s",
+        "wrote {}/results.csv, regions.csv, pareto*.svg, decomposition*.svg, README.md{}",
         out.display(),
         if write_images { " and img/" } else { ", index.html and the summary" },
-        t0.elapsed().as_secs_f64()
     );
-    Ok(results)
+    Ok(())
 }

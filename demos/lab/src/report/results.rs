@@ -2,9 +2,10 @@
 //! linearity checks, the references' summaries and the images of the page.
 
 use crate::measure::{Errors, ReferenceImage};
+use serde::{Deserialize, Serialize};
 
 /// One measured row of `results.csv`.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
     pub scene: String,
     /// `pixel`, `vertex`, or `-` for reference rows.
@@ -36,14 +37,14 @@ pub const CSV_HEADER: &str = "scene,shading,technique,shade_ms,frame_ms,rmse_tri
 pub const REGIONS_HEADER: &str = "scene,shading,image,region,lighting,against,rmse_pct,debiased_pct,noise_pct,of_whole_pct,of_whole_debiased_pct,error_share_pct,radiance_share_pct";
 
 /// One row of `regions.csv` ([`REGIONS_HEADER`]).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RegionRow {
     pub scene: String,
     pub shading: String,
     pub image: String,
     pub region: String,
-    pub lighting: &'static str,
-    pub against: &'static str,
+    pub lighting: String,
+    pub against: String,
     pub rmse: f64,
     pub debiased: f64,
     pub noise: f64,
@@ -55,7 +56,7 @@ pub struct RegionRow {
 
 /// Upper + lower against whole for one image: the relative RMSE of (upper + lower − whole) against the whole,
 /// and the noise of that combination estimated from the halves (0 for a technique: its renders are exact).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LinearityCheck {
     pub scene: String,
     pub image: String,
@@ -82,6 +83,7 @@ impl LinearityCheck {
 }
 
 /// The references of one scene.
+#[derive(Serialize, Deserialize)]
 pub struct SceneReferences {
     pub scene: String,
     pub triangles: ReferenceSummary,
@@ -89,7 +91,7 @@ pub struct SceneReferences {
 }
 
 /// What the README says about a converged reference.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ReferenceSummary {
     pub spp: u32,
     pub relative_stderr: f64,
@@ -111,7 +113,7 @@ impl From<&ReferenceImage> for ReferenceSummary {
 }
 
 /// One image of a scene on the results page, PNG-encoded, with its error heat maps.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PageImage {
     /// `spec (shading)` for a technique, `reference (triangles)` / `reference (spheres)` for a reference.
     pub label: String,
@@ -128,7 +130,7 @@ pub struct PageImage {
 }
 
 /// The images of one scene of the sweep.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SceneImages {
     pub scene: String,
     pub width: u32,
@@ -136,7 +138,8 @@ pub struct SceneImages {
     pub images: Vec<PageImage>,
 }
 
-/// Everything a sweep measured.
+/// Everything a sweep measured (one point of a sweep run as jobs keeps its part in this form: `super::jobs`).
+#[derive(Serialize, Deserialize)]
 pub struct Results {
     /// Every scene's images (for the results page), in sweep order.
     pub images: Vec<SceneImages>,

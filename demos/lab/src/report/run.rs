@@ -49,9 +49,56 @@ fn shading_flag(s: &str) -> Result<bool> {
     }
 }
 
-/// Run the sweep, printing progress to stderr, and write every output into `out`; `command` is the command line
-/// that ran it (the results page names it).
+/// Which part of a sweep to measure: all of it (one process), or one point of the sweep run as jobs
+/// (`super::jobs`, docs/sweeps.md): a scene's references, or one technique at one shading rate on one scene.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Part {
+    All,
+    /// The references of scene `scene` (index into the sweep's scenes): their rows, images, region rows and
+    /// linearity checks. Converges them into the reference cache, where the scene's technique points find them.
+    References {
+        scene: usize,
+    },
+    /// One technique on one scene: its row, images, region rows and linearity check, against the scene's
+    /// references (from the cache, or converged here when its reference point has not run yet).
+    Technique {
+        scene: usize,
+        shading: String,
+        technique: String,
+    },
+}
+
+impl Part {
+    fn has_scene(&self, i: usize) -> bool {
+        match self {
+            Part::All => true,
+            Part::References { scene } | Part::Technique { scene, .. } => *scene == i,
+        }
+    }
+
+    /// Whether the references' rows, images and checks are this part's output.
+    fn references(&self) -> bool {
+        !matches!(self, Part::Technique { .. })
+    }
+
+    fn measures(&self, shading: &str, tech: &str) -> bool {
+        match self {
+            Part::All => true,
+            Part::References { .. } => false,
+            Part::Technique { shading: s, technique: t, .. } => s == shading && t == tech,
+        }
+    }
+}
+
+/// Run the sweep, printing progress to stderr, and write its images into `out`.
 pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
+    measure_part(gpu, sweep, out, &Part::All)
+}
+
+/// Measure `part` of the sweep (see [`Part`]). A point's references are exactly those of the single-process run:
+/// the fraction rule converges them against every technique of the scene (rendered here for that, when the
+/// reference is not cached), and the hemisphere and unoccluded references go through the same cache.
+pub fn measure_part(gpu: &Gpu, sweep: &Sweep, out: &Path, part: &Part) -> Result<Results> {
     let img = out.join("img");
     std::fs::create_dir_all(if sweep.site.is_none() { &img } else { out })
         .with_context(|| format!("creating {}", img.display()))?;
@@ -62,7 +109,11 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
     check_scenes(sweep)?;
     let (w, h) = (sweep.width, sweep.height);
     let frames = sweep.frames.max(5);
-    let total: usize = sweep.scenes.iter().flat_map(shadings).map(|s| sweep.techniques_at(&s).count()).sum();
+    let total: usize = (sweep.scenes.iter().enumerate().filter(|(i, _)| part.has_scene(*i)))
+        .flat_map(|(_, spec)| shadings(spec))
+        .map(|s| sweep.techniques_at(&s).filter(|t| part.measures(&s, t)).count())
+        .sum();
+    let refs_out = part.references();
     let mut done = 0;
     let t0 = std::time::Instant::now();
     let cache = sweep.reference_cache.as_ref().map(|d| workspace_root().join(d));
@@ -86,7 +137,10 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
         regions: Vec::new(),
         linearity: Vec::new(),
     };
-    for spec in &sweep.scenes {
+    for (scene_index, spec) in sweep.scenes.iter().enumerate() {
+        if !part.has_scene(scene_index) {
+            continue;
+        }
         let label = spec.label().to_string();
         let mut scene = scenes::build(&spec.scene, None)?;
         if let Some(m) = scene.materials.first_mut() {
@@ -106,7 +160,7 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
         let has_spheres = scene.blockers.spheres.iter().any(Option::is_some);
         let mut measured: Vec<(String, Measured)> = Vec::new();
         for shading in &shadings(spec) {
-            for tech in sweep.techniques_at(shading) {
+            for tech in sweep.techniques_at(shading).filter(|t| part.measures(shading, t)) {
                 done += 1;
                 let m = measure::measure_technique(gpu, &scene, settings(shading, tech)?, frames)
                     .with_context(|| format!("{label} / {shading} / {tech}"))?;
@@ -119,7 +173,31 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 measured.push((shading.clone(), m));
             }
         }
-        let against: Vec<&[f32]> = measured.iter().map(|(_, m)| m.hdr.as_slice()).collect();
+        // The images the fraction rule converges a reference against: every technique of the scene, as the
+        // single-process run measured them (a point renders them when it converges a reference itself).
+        let every_technique = |scene: &engine::scene::Scene, frames: u32| -> Result<Vec<Vec<f32>>> {
+            let mut v = Vec::new();
+            for shading in &shadings(spec) {
+                for tech in sweep.techniques_at(shading) {
+                    v.push(measure::measure_technique(gpu, scene, settings(shading, tech)?, frames)?.hdr);
+                }
+            }
+            Ok(v)
+        };
+        let key = |vis: Visibility| {
+            format!(
+                "{}|{:?}|{:?}|{:?}|{:?}|{w}x{h}|{}|{}|{}|{}",
+                spec.scene,
+                spec.gloss,
+                spec.ks,
+                spec.brdf,
+                spec.time.map(f32::to_bits),
+                measure::visibility_name(vis),
+                sweep.fraction,
+                sweep.max_spp,
+                sweep.samples_per_frame
+            )
+        };
         let base = RenderSettings { width: w, height: h, ..Default::default() };
         let converge = |vis: Visibility| -> Result<ReferenceImage> {
             eprintln!(
@@ -133,22 +211,21 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 max_spp: sweep.max_spp,
                 samples_per_frame: sweep.samples_per_frame,
             };
-            let key = format!(
-                "{}|{:?}|{:?}|{:?}|{:?}|{w}x{h}|{}|{}|{}|{}",
-                spec.scene,
-                spec.gloss,
-                spec.ks,
-                spec.brdf,
-                spec.time.map(f32::to_bits),
-                measure::visibility_name(vis),
-                sweep.fraction,
-                sweep.max_spp,
-                sweep.samples_per_frame
-            );
-            let r =
-                measure::cached_reference(cache.as_deref(), &measure::file_stem(&label), &key, vis, pixels, || {
+            let r = measure::cached_reference(
+                cache.as_deref(),
+                &measure::file_stem(&label),
+                &key(vis),
+                vis,
+                pixels,
+                || {
+                    let images = match part {
+                        Part::All => measured.iter().map(|(_, m)| m.hdr.clone()).collect(),
+                        _ => every_technique(&scene, frames)?,
+                    };
+                    let against: Vec<&[f32]> = images.iter().map(Vec::as_slice).collect();
                     measure::converge_reference(gpu, &scene, &base, &run, &against)
-                })?;
+                },
+            )?;
             eprintln!(
                 "{label}: {} reference: {} spp, relative standard error {:.3} % ({}converged) in {:.1} s",
                 measure::visibility_name(vis),
@@ -175,34 +252,37 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 }
                 Ok(png)
             };
-        let png =
-            keep(&mut thumbs, format!("{stem}-reference-triangles.png"), "reference (triangles)".into(), &tri.ldr)?;
-        page.images.push(PageImage {
-            label: "reference (triangles)".into(),
-            spec: "reference/triangles".into(),
-            group: "reference".into(),
-            ldr: tri.ldr.clone(),
-            png,
-            heat_triangles: None,
-            heat_spheres: None,
-        });
-        if let Some(s) = &sph {
-            let png = keep(&mut thumbs, format!("{stem}-reference-spheres.png"), "reference (spheres)".into(), &s.ldr)?;
-            let heat = keep(
-                &mut thumbs,
-                format!("{stem}-proxy-error.png"),
-                "proxy error |spheres − triangles|".into(),
-                &measure::heatmap(&s.hdr, &tri, w, h),
-            )?;
+        if refs_out {
+            let png =
+                keep(&mut thumbs, format!("{stem}-reference-triangles.png"), "reference (triangles)".into(), &tri.ldr)?;
             page.images.push(PageImage {
-                label: "reference (spheres)".into(),
-                spec: "reference/spheres".into(),
+                label: "reference (triangles)".into(),
+                spec: "reference/triangles".into(),
                 group: "reference".into(),
-                ldr: s.ldr.clone(),
+                ldr: tri.ldr.clone(),
                 png,
-                heat_triangles: Some(heat),
+                heat_triangles: None,
                 heat_spheres: None,
             });
+            if let Some(s) = &sph {
+                let png =
+                    keep(&mut thumbs, format!("{stem}-reference-spheres.png"), "reference (spheres)".into(), &s.ldr)?;
+                let heat = keep(
+                    &mut thumbs,
+                    format!("{stem}-proxy-error.png"),
+                    "proxy error |spheres − triangles|".into(),
+                    &measure::heatmap(&s.hdr, &tri, w, h),
+                )?;
+                page.images.push(PageImage {
+                    label: "reference (spheres)".into(),
+                    spec: "reference/spheres".into(),
+                    group: "reference".into(),
+                    ldr: s.ldr.clone(),
+                    png,
+                    heat_triangles: Some(heat),
+                    heat_spheres: None,
+                });
+            }
         }
         for (shading, m) in &measured {
             let name = format!("{stem}-{shading}-{}", measure::file_stem(&m.spec));
@@ -250,6 +330,8 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
         // Representation error (docs/design.md §4): every technique on the scene without blockers against the
         // unoccluded reference; what is left is the technique's fit of the lighting and BRDF.
         let mut representation: Vec<Option<Errors>> = vec![None; measured.len()];
+        // A scene's reference point converges the unoccluded reference too (into the cache, for its technique
+        // points), though it has no row of its own.
         if has_spheres && sweep.representation {
             let free = measure::without_blockers(&scene);
             let mut images = Vec::new();
@@ -263,8 +345,15 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 max_spp: sweep.max_spp,
                 samples_per_frame: sweep.samples_per_frame,
             };
-            let against: Vec<&[f32]> = images.iter().map(|m| m.hdr.as_slice()).collect();
-            let unocc = measure::converge_reference(gpu, &free, &base, &run, &against)?;
+            let vis = Visibility::Unoccluded;
+            let unocc = measure::cached_reference(cache.as_deref(), &stem, &key(vis), vis, pixels, || {
+                let all = match part {
+                    Part::All => images.iter().map(|m| m.hdr.clone()).collect(),
+                    _ => every_technique(&free, 1)?,
+                };
+                let against: Vec<&[f32]> = all.iter().map(Vec::as_slice).collect();
+                measure::converge_reference(gpu, &free, &base, &run, &against)
+            })?;
             for (slot, m) in representation.iter_mut().zip(&images) {
                 *slot = Some(measure::errors(&m.hdr, &m.ldr, &unocc, w, h));
             }
@@ -272,7 +361,7 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
         for (row, e) in results.rows.iter_mut().rev().take(measured.len()).rev().zip(&representation) {
             row.representation = *e;
         }
-        if let Some(s) = &sph {
+        if let (Some(s), true) = (&sph, refs_out) {
             results.rows.push(Row {
                 scene: label.clone(),
                 shading: "pixel".into(),
@@ -284,16 +373,18 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                 representation: None,
             });
         }
-        results.rows.push(Row {
-            scene: label.clone(),
-            shading: "pixel".into(),
-            technique: "reference/triangles".into(),
-            shade_ms: tri.ms_per_sample * tri.report.samples as f64,
-            frame_ms: f64::NAN,
-            vs_triangles: None,
-            vs_spheres: sph.as_ref().map(|s| between(&tri, s)),
-            representation: None,
-        });
+        if refs_out {
+            results.rows.push(Row {
+                scene: label.clone(),
+                shading: "pixel".into(),
+                technique: "reference/triangles".into(),
+                shade_ms: tri.ms_per_sample * tri.report.samples as f64,
+                frame_ms: f64::NAN,
+                vs_triangles: None,
+                vs_spheres: sph.as_ref().map(|s| between(&tri, s)),
+                representation: None,
+            });
+        }
 
         // The error by region (objects, found exactly in the G-buffer) and by lighting (upper and lower
         // hemisphere of the environment, rendered separately: rendering is linear in the lighting).
@@ -326,25 +417,32 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
                         lighting.name(),
                         r.report.samples
                     );
-                    measure::reference_at(gpu, &lit, &base, r.visibility, r.report.samples, sweep.samples_per_frame)
+                    let vis = r.visibility;
+                    let key = format!("{}|lighting {}|{} spp", key(vis), lighting.name(), r.report.samples);
+                    let stem = format!("{stem}-{}", lighting.name());
+                    measure::cached_reference(cache.as_deref(), &stem, &key, vis, pixels, || {
+                        measure::reference_at(gpu, &lit, &base, vis, r.report.samples, sweep.samples_per_frame)
+                    })
                 };
                 let tri = at(&sets[0].tri)?;
                 let sph = sets[0].sph.as_ref().map(at).transpose()?;
                 sets.push(LightingSet { lighting, tri, sph, techniques });
             }
-            linearity(&label, &measured, &sets, &mut results.linearity);
+            linearity(&label, &measured, &sets, refs_out, &mut results.linearity);
         }
-        region_rows(&label, &measured, &regions, &sets, &mut results.regions);
+        region_rows(&label, &measured, &regions, &sets, refs_out, &mut results.regions);
         let (tri, sph) = {
             let whole = sets.swap_remove(0);
             (whole.tri, whole.sph)
         };
 
-        results.references.push(SceneReferences {
-            scene: label.clone(),
-            triangles: (&tri).into(),
-            spheres: sph.as_ref().map(Into::into),
-        });
+        if refs_out {
+            results.references.push(SceneReferences {
+                scene: label.clone(),
+                triangles: (&tri).into(),
+                spheres: sph.as_ref().map(Into::into),
+            });
+        }
         results.thumbnails.push((label, thumbs));
     }
     Ok(results)
@@ -352,7 +450,13 @@ pub fn measure(gpu: &Gpu, sweep: &Sweep, out: &Path) -> Result<Results> {
 
 /// Upper + lower (+ lights) − whole for every reference and technique of a scene ([`LinearityCheck`]), printed
 /// as well.
-fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet], out: &mut Vec<LinearityCheck>) {
+fn linearity(
+    label: &str,
+    measured: &[(String, Measured)],
+    sets: &[LightingSet],
+    refs_out: bool,
+    out: &mut Vec<LinearityCheck>,
+) {
     let Some((whole, parts)) = sets.split_first() else { return };
     if parts.is_empty() {
         return;
@@ -387,7 +491,7 @@ fn linearity(label: &str, measured: &[(String, Measured)], sets: &[LightingSet],
     fn refs(s: &LightingSet) -> [Option<&ReferenceImage>; 2] {
         [Some(&s.tri), s.sph.as_ref()]
     }
-    for kind in 0..2 {
+    for kind in (0..2).filter(|_| refs_out) {
         let Some(w) = refs(whole)[kind] else { continue };
         let Some(p) = parts.iter().map(|p| refs(p)[kind]).collect::<Option<Vec<&ReferenceImage>>>() else {
             continue;
@@ -414,6 +518,7 @@ fn region_rows(
     measured: &[(String, Measured)],
     regions: &[Region],
     sets: &[LightingSet],
+    refs_out: bool,
     out: &mut Vec<RegionRow>,
 ) {
     let Some(whole) = sets.first() else { return };
@@ -434,7 +539,7 @@ fn region_rows(
             skip: None,
         })
         .collect();
-    if whole.sph.is_some() {
+    if whole.sph.is_some() && refs_out {
         images.push(Image {
             shading: "pixel".into(),
             name: "reference/spheres".into(),
@@ -482,8 +587,8 @@ fn region_rows(
                         shading: img.shading.clone(),
                         image: img.name.clone(),
                         region: region.name.clone(),
-                        lighting: set.lighting.name(),
-                        against,
+                        lighting: set.lighting.name().to_string(),
+                        against: against.to_string(),
                         rmse: d.rmse(),
                         debiased: d.debiased_of(d.reference_sq),
                         noise: d.noise_of(d.reference_sq),

@@ -5,7 +5,6 @@ use super::results::*;
 use super::sweep::*;
 use crate::measure::{self, Errors};
 use anyhow::{Context, Result};
-use engine::gpu::Gpu;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -220,7 +219,7 @@ fn f2(v: f64) -> String {
     }
 }
 
-pub(super) fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
+pub(super) fn readme(device: &str, sweep: &Sweep, res: &Results) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Speed against error\n");
     let _ = writeln!(
@@ -234,7 +233,7 @@ pub(super) fn readme(gpu: &Gpu, sweep: &Sweep, res: &Results) -> String {
          difference image, D_a and D_b its halves) estimates the variance of the difference. The sphere-proxy and \
          triangle references share their random numbers (same seed, frames and samples), so their difference is \
          far less noisy than the two noises added.\n",
-        gpu.info.name,
+        device,
         sweep.width,
         sweep.height,
         sweep.frames.max(5),
