@@ -4,9 +4,9 @@
 //! (`lab::measure`, as the `compare` binary). Images come back as float32 numpy arrays H×W×3 of linear radiance.
 //!
 //! Every call that works on the GPU releases the GIL for its whole duration; a `Renderer`'s device is behind a
-//! mutex, so two Python threads using one renderer take turns. Each call creates and destroys its engine renderer,
-//! so nothing on the device outlives a call; the device itself is torn down by `close()` or when the object is
-//! dropped.
+//! mutex, so two Python threads using one renderer take turns. `render` keeps its engine renderer while the scene and
+//! settings stay the same (one at a time); `reference` and `compare` make and destroy their own. Everything on the
+//! device goes with `close()` or when the object is dropped.
 
 use anyhow::{Context, Result};
 use engine::gpu::{Gpu, GpuDesc};
@@ -92,6 +92,42 @@ struct Inner {
     last_times: Vec<(String, f64)>,
     /// Validation errors already reported.
     validation_seen: usize,
+    /// The engine renderer of the last `render`, kept while the scene and settings stay the same (making one
+    /// compiles its pipelines and uploads the scene: seconds on lavapipe); replaced (destroyed) when they change,
+    /// destroyed by `close()` and when the object is dropped.
+    cached: Option<Cached>,
+}
+
+/// An engine renderer with what it was made for.
+struct Cached {
+    scene: Arc<engine::scene::Scene>,
+    settings: RenderSettings,
+    renderer: engine::renderer::Renderer,
+}
+
+impl Cached {
+    fn is_for(&self, scene: &Arc<engine::scene::Scene>, settings: &RenderSettings) -> bool {
+        Arc::ptr_eq(&self.scene, scene)
+            && (self.settings.width, self.settings.height, self.settings.per_vertex)
+                == (settings.width, settings.height, settings.per_vertex)
+            && self.settings.technique == settings.technique
+    }
+}
+
+impl Inner {
+    /// Destroy the cached engine renderer, if any.
+    fn drop_cached(&mut self) {
+        if let (Some(c), Some(gpu)) = (self.cached.take(), self.gpu.as_ref()) {
+            c.renderer.destroy(gpu);
+        }
+    }
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        // Before the device goes (the `gpu` field drops after this).
+        self.drop_cached();
+    }
 }
 
 impl Inner {
@@ -184,7 +220,7 @@ impl Renderer {
                 })
             })
             .map_err(py_err)?;
-        Ok(Self { inner: Mutex::new(Inner { gpu: Some(gpu), last_times: Vec::new(), validation_seen: 0 }) })
+        Ok(Self { inner: Mutex::new(Inner { gpu: Some(gpu), last_times: Vec::new(), validation_seen: 0, cached: None }) })
     }
 
     /// The adapter's name.
@@ -209,9 +245,16 @@ impl Renderer {
     ) -> PyResult<Bound<'py, PyArray3<f32>>> {
         let s = scene.scene.clone();
         let image = self.with_gpu(py, |inner| {
-            let gpu = inner.gpu()?;
-            let mut r = engine::renderer::Renderer::new(gpu, &s, settings(technique, width, height, per_vertex))
-                .with_context(|| format!("preparing technique {technique}"))?;
+            let wanted = settings(technique, width, height, per_vertex);
+            if !inner.cached.as_ref().is_some_and(|c| c.is_for(&s, &wanted)) {
+                inner.drop_cached();
+                let gpu = inner.gpu()?;
+                let renderer = engine::renderer::Renderer::new(gpu, &s, wanted.clone())
+                    .with_context(|| format!("preparing technique {technique}"))?;
+                inner.cached = Some(Cached { scene: s.clone(), settings: wanted, renderer });
+            }
+            let gpu = inner.gpu.as_ref().context("this Renderer is closed")?;
+            let r = &mut inner.cached.as_mut().expect("made above").renderer;
             let out = (|| -> Result<_> {
                 let mut times = Vec::new();
                 for _ in 0..frames.max(1) {
@@ -219,8 +262,8 @@ impl Renderer {
                 }
                 Ok((r.read_radiance(gpu)?, times))
             })();
-            r.destroy(gpu);
-            let (hdr, times) = out?;
+            // A renderer that failed is not reused.
+            let (hdr, times) = out.inspect_err(|_| inner.drop_cached())?;
             inner.last_times = summed(&times);
             rgb_array(&hdr, width, height)
         })?;
@@ -334,6 +377,7 @@ impl Renderer {
     fn close(&self, py: Python<'_>) -> PyResult<()> {
         py.allow_threads(|| {
             let mut inner = self.inner.lock().map_err(|_| anyhow::anyhow!("a previous call panicked"))?;
+            inner.drop_cached();
             match inner.gpu.take() {
                 Some(gpu) => gpu.shutdown().map_err(Into::into),
                 None => Ok(()),
