@@ -220,7 +220,9 @@ impl Renderer {
                 })
             })
             .map_err(py_err)?;
-        Ok(Self { inner: Mutex::new(Inner { gpu: Some(gpu), last_times: Vec::new(), validation_seen: 0, cached: None }) })
+        Ok(Self {
+            inner: Mutex::new(Inner { gpu: Some(gpu), last_times: Vec::new(), validation_seen: 0, cached: None }),
+        })
     }
 
     /// The adapter's name.
@@ -324,7 +326,8 @@ impl Renderer {
             let mut rows = Vec::new();
             for v in vis {
                 let against: Vec<&[f32]> = measured.iter().map(|m| m.hdr.as_slice()).collect();
-                let run = measure::ReferenceRun { visibility: v, fraction, max_spp, samples_per_frame: 16.min(max_spp) };
+                let run =
+                    measure::ReferenceRun { visibility: v, fraction, max_spp, samples_per_frame: 16.min(max_spp) };
                 let reference =
                     measure::converge_reference(gpu, &s, &settings("reference", width, height, false), &run, &against)?;
                 for m in &measured {

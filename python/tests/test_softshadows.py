@@ -47,11 +47,11 @@ def test_techniques_come_from_the_engine_registry(renderer, bunny):
     names = ss.techniques()
     for t in ["isg", "shexp", "lobes", "none", "reference"]:
         assert t in names
-    # Every registered technique but the reference (which converges, below) renders through the same path.
-    images = {t: renderer.render(bunny, technique=t, width=W, height=H) for t in ["isg", "shexp", "lobes", "none"]}
-    # Shadows darken: a shadowing technique is darker than no shadows at all, in total.
-    for t in ["isg", "shexp", "lobes"]:
-        assert images[t].sum() < images["none"].sum(), t
+    # Shadows darken: a shadowing technique is darker than no shadows at all (`none`), in total. (shexp and lobes
+    # render in test_compare_rows; each technique made costs seconds on lavapipe.)
+    isg = renderer.render(bunny, technique="isg", width=W, height=H)
+    none = renderer.render(bunny, technique="none", width=W, height=H)
+    assert isg.sum() < none.sum()
 
 
 def test_errors_carry_the_engine_message(renderer, bunny):
@@ -97,18 +97,20 @@ def test_reference_is_deterministic_and_agrees_with_a_technique(renderer, bunny)
 
 
 def test_compare_rows(bunny):
-    rows = ss.compare(bunny, ["isg", "shexp", "lobes"], width=16, height=12, frames=1, max_spp=32)
-    assert [r["technique"] for r in rows] == ["isg", "shexp", "lobes"]
+    techniques = ["isg", "shexp", "lobes"]
+    rows = ss.compare(bunny, techniques, width=16, height=12, frames=1, max_spp=32, visibility="both")
+    assert [(r["visibility"], r["technique"]) for r in rows] == [(v, t) for v in ["spheres", "triangles"] for t in techniques]
     for r in rows:
-        assert r["visibility"] == "triangles"
         for key in ["rmse_percent", "debiased_percent", "max_error", "flip", "shade_ms", "frame_ms"]:
             assert np.isfinite(r[key]) and r[key] >= 0, (key, r)
         assert 0 < r["rmse_percent"] < 100
         assert 0 < r["reference_spp"] <= 32
-    both = ss.compare(bunny, ["isg"], width=16, height=12, frames=1, max_spp=16, visibility="both")
-    assert [r["visibility"] for r in both] == ["spheres", "triangles"]
-    with pytest.raises(ss.EngineError, match="unknown technique"):
-        ss.compare(bunny, ["isg", "nope"], width=16, height=12, frames=1, max_spp=16)
+    # The same images against two references: the same shade times, different errors.
+    for t in range(3):
+        assert rows[t]["shade_ms"] == rows[t + 3]["shade_ms"]
+        assert rows[t]["rmse_percent"] != rows[t + 3]["rmse_percent"]
+    with pytest.raises(ss.EngineError, match="unknown technique 'nope'"):
+        ss.compare(bunny, ["nope", "isg"], width=16, height=12, frames=1, max_spp=16)
 
 
 def test_the_gil_is_released_while_the_gpu_works(renderer, bunny):
@@ -142,7 +144,7 @@ def test_two_threads_share_one_renderer(renderer, bunny):
         except Exception as e:  # noqa: BLE001 - reported below
             errors.append(e)
 
-    threads = [threading.Thread(target=work, args=(n,)) for n in ["isg", "shexp"]]
+    threads = [threading.Thread(target=work, args=(n,)) for n in ["isg", "none"]]
     for t in threads:
         t.start()
     for t in threads:

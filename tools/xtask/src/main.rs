@@ -223,20 +223,18 @@ fn python_tests() -> Result<()> {
         std::iter::once(bin.clone()).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
     )?;
     let mut c = Command::new(bin.join("maturin"));
-    c.current_dir(root())
-        .env("VIRTUAL_ENV", &venv)
-        .env("PATH", &path)
-        .env("CARGO_TARGET_DIR", &target)
-        .args(["develop", "--quiet", "--manifest-path", "python/Cargo.toml"]);
+    c.current_dir(root()).env("VIRTUAL_ENV", &venv).env("PATH", &path).env("CARGO_TARGET_DIR", &target).args([
+        "develop",
+        "--quiet",
+        "--manifest-path",
+        "python/Cargo.toml",
+    ]);
     run(c).context("building the Python module (maturin develop)")?;
     let built = t0.elapsed().as_secs_f64();
     let mut c = Command::new(bin.join("python"));
     c.current_dir(root()).env("ENGINE_VALIDATION", "1").args(["-m", "pytest", "-q", "python/tests"]);
     run(c).context("the Python module's tests")?;
-    eprintln!(
-        "xtask: Python module tests in {:.0} s ({built:.0} s venv and build)",
-        t0.elapsed().as_secs_f64()
-    );
+    eprintln!("xtask: Python module tests in {:.0} s ({built:.0} s venv and build)", t0.elapsed().as_secs_f64());
     Ok(())
 }
 
