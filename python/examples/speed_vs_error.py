@@ -28,7 +28,7 @@ print(img.shape, img.dtype, "mean radiance", float(img.mean()))
 print({name: round(ms, 2) for name, ms in r.last_pass_times().items()})
 
 # %% The table: every variant against one converged triangle reference (rows are dicts).
-variants = ["isg:patches=4", "isg:patches=8", "isg:patches=16", "shexp:order=2", "shexp", "lobes:depth=2", "lobes"]
+variants = ["isg:patches=4", "isg:patches=8", "isg:patches=16", "shexp:order=3", "shexp", "lobes:depth=2", "lobes"]
 table = r.compare(scene, variants, width=80, height=60, visibility="triangles", frames=3, max_spp=1024)
 for row in table:
     print(f"{row['technique']:>16}  {row['debiased_percent']:6.2f} %  {row['shade_ms']:8.2f} ms")
