@@ -234,6 +234,8 @@ impl Renderer {
 
     /// `render(scene, technique="isg", width=320, height=240, frames=1, per_vertex=False)`: the last of `frames`
     /// frames as float32 H×W×3 linear radiance. `technique` is a `demo --technique` spec.
+    // The Python keywords, one argument each.
+    #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (scene, technique = "isg", width = 320, height = 240, frames = 1, per_vertex = false))]
     fn render<'py>(
         &self,
@@ -275,6 +277,8 @@ impl Renderer {
     /// `reference(scene, width=80, height=60, visibility="triangles", spp=1024, samples_per_frame=16)`: the Monte
     /// Carlo reference at `spp` samples per pixel (whole frames of `samples_per_frame`), float32 H×W×3.
     /// `visibility`: `triangles`, `spheres` or `unoccluded` (as `compare --visibility`).
+    // The Python keywords, one argument each.
+    #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (scene, width = 80, height = 60, visibility = "triangles", spp = 1024, samples_per_frame = 16))]
     fn reference<'py>(
         &self,
