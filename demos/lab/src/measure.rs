@@ -219,6 +219,15 @@ pub fn freeze_at(gpu: &Gpu, name: &str, mut scene: Scene, t: f32) -> Result<Scen
     scenes::cloth::frozen_at(gpu, &scene, t)
 }
 
+/// A reference visibility by its name (`compare --visibility`, the Python module): the inverse of
+/// [`visibility_name`].
+pub fn parse_visibility(name: &str) -> Result<Visibility> {
+    [Visibility::Triangles, Visibility::Spheres, Visibility::Unoccluded]
+        .into_iter()
+        .find(|v| visibility_name(*v) == name)
+        .ok_or_else(|| anyhow::anyhow!("visibility '{name}': use triangles, spheres or unoccluded"))
+}
+
 pub fn visibility_name(v: Visibility) -> &'static str {
     match v {
         Visibility::Triangles => "triangles",

@@ -27,6 +27,8 @@ const APT_PACKAGES: &[&str] = &[
     "chromium",
     // The sweep-as-jobs test runs a job file with GNU parallel (demos/lab/tests/jobs.rs, docs/sweeps.md).
     "parallel",
+    // The Python module's tests make a venv (python3 -m venv needs it on Debian's python3).
+    "python3-venv",
 ];
 
 pub(crate) fn root() -> PathBuf {
@@ -209,6 +211,9 @@ fn test(rest: &[String]) -> Result<()> {
     c.args(["test", "--workspace"]).args(rest);
     run(c)?;
     lap("tests", &mut since);
+    // The Python module's tests, built with the same environment so that the engine's crates are reused.
+    python_tests(&with_env)?;
+    lap("python", &mut since);
     let table: Vec<String> = phases.iter().map(|(n, s)| format!("{n} {s:.0} s")).collect();
     eprintln!("xtask: all tests passed in {:.0} s ({})", t0.elapsed().as_secs_f64(), table.join(", "));
     Ok(())
@@ -227,6 +232,50 @@ fn clippy_driver() -> Option<PathBuf> {
         .filter(|o| o.status.success())
         .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
     Some(by_rustup.unwrap_or_else(|| PathBuf::from("clippy-driver")))
+}
+
+/// The Python module's test tools, pinned (PyPI); a venv made before a change of pins is updated.
+const PYTHON_TEST_TOOLS: &[&str] = &["maturin==1.16.0", "numpy==2.4.6", "pytest==9.2.0"];
+
+/// The Python module's tests (python/tests): a venv under the target folder with [`PYTHON_TEST_TOOLS`], the module
+/// built into it by `maturin develop` (the dev profile, in the workspace's target folder, so the engine's
+/// compiled crates are reused), then pytest with validation layers required.
+fn python_tests(with_env: &dyn Fn(&mut Command)) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from);
+    let venv = target.join("python-venv");
+    let bin = venv.join("bin");
+    if !bin.join("python").exists() {
+        let mut c = Command::new("python3");
+        c.args(["-m", "venv"]).arg(&venv);
+        run(c).context("creating the Python venv (Debian: apt-get install python3-venv; `cargo xtask setup` does)")?;
+    }
+    let stamp = venv.join("softshadows-test-tools.txt");
+    let pins = PYTHON_TEST_TOOLS.join("\n");
+    if std::fs::read_to_string(&stamp).ok().as_deref() != Some(pins.as_str()) {
+        let mut c = Command::new(bin.join("python"));
+        c.args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"]).args(PYTHON_TEST_TOOLS);
+        run(c).context("installing the Python test tools from PyPI")?;
+        std::fs::write(&stamp, &pins).with_context(|| format!("writing {}", stamp.display()))?;
+    }
+    let path = std::env::join_paths(
+        std::iter::once(bin.clone()).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
+    )?;
+    let mut c = Command::new(bin.join("maturin"));
+    with_env(&mut c);
+    c.current_dir(root()).env("VIRTUAL_ENV", &venv).env("PATH", &path).env("CARGO_TARGET_DIR", &target).args([
+        "develop",
+        "--quiet",
+        "--manifest-path",
+        "python/Cargo.toml",
+    ]);
+    run(c).context("building the Python module (maturin develop)")?;
+    let built = t0.elapsed().as_secs_f64();
+    let mut c = Command::new(bin.join("python"));
+    c.current_dir(root()).env("ENGINE_VALIDATION", "1").args(["-m", "pytest", "-q", "python/tests"]);
+    run(c).context("the Python module's tests")?;
+    eprintln!("xtask: Python module tests in {:.0} s ({built:.0} s venv and build)", t0.elapsed().as_secs_f64());
+    Ok(())
 }
 
 /// Whether `cargo <sub>` works, installing the rustup component once if it is missing.

@@ -141,12 +141,12 @@ fn run() -> Result<()> {
         scene.blockers.plane_meshes.clear();
     }
     let visibilities: Vec<(&str, Visibility)> = match args.visibility.as_str() {
-        "spheres" => vec![("spheres", Visibility::Spheres)],
-        "triangles" => vec![("triangles", Visibility::Triangles)],
         "both" => vec![("spheres", Visibility::Spheres), ("triangles", Visibility::Triangles)],
-        "unoccluded" => vec![("unoccluded", Visibility::Unoccluded)],
         "none" => Vec::new(),
-        v => bail!("--visibility {v}: use spheres, triangles, both, unoccluded or none"),
+        v => match measure::parse_visibility(v) {
+            Ok(vis) => vec![(measure::visibility_name(vis), vis)],
+            Err(_) => bail!("--visibility {v}: use spheres, triangles, both, unoccluded or none"),
+        },
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(count) = args.spheres {

@@ -242,7 +242,9 @@ impl<'a> ShadeInputs<'a> {
     }
 }
 
-pub trait Technique {
+/// `Send`: a renderer moves between threads (the Python module keeps one behind a mutex and renders with the GIL
+/// released); a technique holds Vulkan handles and host data only.
+pub trait Technique: Send {
     fn name(&self) -> &'static str;
     /// Derive only the representations this technique reads (SG fit, SH, tables), once per scene.
     fn prepare(&mut self, gpu: &Gpu, inputs: &ShadeInputs) -> Result<()>;
