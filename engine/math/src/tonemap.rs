@@ -39,8 +39,9 @@ mod tests {
 
     #[test]
     fn bright_is_white_and_nan_black() {
+        // White within rounding: 1.055 · 1 − 0.055 is 1 − 2⁻⁵³ or 1 depending on how the compiler fuses it.
         for x in [7.3, 16.0, 1e19, 1e36, f64::MAX, f64::INFINITY] {
-            assert_eq!(tonemap([x; 3], 1.0), [1.0; 3], "{x}");
+            assert!(tonemap([x; 3], 1.0).iter().all(|v| (v - 1.0).abs() < 1e-12), "{x}");
         }
         assert_eq!(tonemap([f64::NAN, -1.0, f64::NEG_INFINITY], 1.0), [0.0; 3]);
         assert_eq!(tonemap([0.0; 3], 1.0), [0.0; 3]);
