@@ -68,7 +68,8 @@
 //! }
 //! # // The registry's CPU checks (demos/tests/scenes.rs runs them on every registered scene):
 //! # let assets = scenes::assets_dir();
-//! # let scene = (SCENE.build)(&SceneInputs { env: None, assets: &assets }).unwrap();
+//! # let options = engine::options::parse("NAME", &[], &[]).unwrap(); // a scene without options
+//! # let scene = (SCENE.build)(&SceneInputs { env: None, assets: &assets, options: &options }).unwrap();
 //! # scenes::check(&SCENE, &scene).unwrap();
 //! ```
 
@@ -211,6 +212,7 @@ pub mod battle;
 pub mod bunny;
 pub mod chess;
 pub mod cloth;
+pub mod crowd;
 pub mod furnace;
 pub mod lamp;
 pub mod limits;
@@ -233,7 +235,12 @@ pub const SCENES: &[SceneEntry] = &[
     chess::SCENE,
     cloth::SCENE,
     battle::SCENE,
+    crowd::SCENE,
 ];
+
+/// The scenes that take options (`--scene NAME:key=value,...`), with their schemas: a table beside the registry,
+/// so that no entry has to change for a scene to have none. Any other scene given options is an error.
+pub const SCENE_OPTIONS: &[(&str, &[engine::options::OptionSpec])] = &[("crowd", crowd::OPTIONS)];
 
 /// A registered scene.
 #[derive(Clone, Copy)]
@@ -256,6 +263,9 @@ pub struct SceneInputs<'a> {
     pub env: Option<&'a Path>,
     /// The assets folder (meshes, environment maps, cached sphere sets): [`crate::assets_dir`].
     pub assets: &'a Path,
+    /// The scene's options (`--scene NAME:key=value,...`), parsed against its schema in [`SCENE_OPTIONS`] with
+    /// the defaults filled in (empty for a scene without options).
+    pub options: &'a engine::options::Options,
 }
 
 /// A scene's animation: a pose as a function of time.
@@ -370,16 +380,32 @@ pub fn load(spec: &str, env: Option<&Path>, opts: &user::UserOptions) -> Result<
     );
     anyhow::ensure!(opts.ground.is_none(), "--ground applies to file scenes; '{spec}' is a registered scene");
     let entry = find(spec)?;
-    let scene = build(entry.name, env)?;
+    let scene = build(spec, env)?;
     let animation = Animation::for_entry(entry, &scene);
     Ok(Loaded { label: spec.to_string(), scene, animation })
 }
 
-/// The registered scene called `name`; an unknown name is an error listing the registered ones.
-pub fn find(name: &str) -> Result<&'static SceneEntry> {
-    SCENES.iter().find(|s| s.name == name).ok_or_else(|| {
+/// The registered scene of `spec` (`NAME` or `NAME:key=value,...`); an unknown name is an error listing the
+/// registered ones, and options the scene does not take (or bad values) are errors naming them.
+pub fn find(spec: &str) -> Result<&'static SceneEntry> {
+    Ok(find_with_options(spec)?.0)
+}
+
+/// [`find`], with the scene's options parsed (defaults filled in).
+pub fn find_with_options(spec: &str) -> Result<(&'static SceneEntry, engine::options::Options)> {
+    let (name, pairs) = engine::options::split_spec(spec).map_err(|e| anyhow::anyhow!("scene {e}"))?;
+    let entry = SCENES.iter().find(|s| s.name == name).ok_or_else(|| {
         anyhow::anyhow!("unknown scene '{name}' (scenes: {}; or a .gltf, .glb, .obj or .toml file)", names())
-    })
+    })?;
+    let schema = SCENE_OPTIONS.iter().find(|(n, _)| *n == entry.name).map_or(&[][..], |(_, s)| *s);
+    let options = engine::options::parse(&format!("scene '{}'", entry.name), schema, &pairs)?;
+    Ok((entry, options))
+}
+
+/// The options of the registered scene `name` parsed from `pairs` (`key=value,...`, empty for the defaults).
+pub fn parse_options(name: &str, pairs: &str) -> Result<engine::options::Options> {
+    let spec = if pairs.is_empty() { name.to_string() } else { format!("{name}:{pairs}") };
+    Ok(find_with_options(&spec)?.1)
 }
 
 /// The registered names, comma-separated.
@@ -387,15 +413,17 @@ pub fn names() -> String {
     SCENES.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
 }
 
-/// Build the registered scene `name` from the project's assets, with `env` instead of its environment; a file
-/// name builds that file's scene with the default options ([`load`] takes options and returns its clips).
+/// Build the registered scene `name` (`NAME[:key=value,...]`) from the project's assets, with `env` instead of
+/// its environment; a file name builds that file's scene with the default options ([`load`] takes options and
+/// returns its clips).
 pub fn build(name: &str, env: Option<&Path>) -> Result<Scene> {
     if user::is_file_spec(name) && find(name).is_err() {
         return Ok(load(name, env, &user::UserOptions::default())?.scene);
     }
-    let entry = find(name)?;
+    let (entry, options) = find_with_options(name)?;
     let assets = crate::assets_dir();
-    (entry.build)(&SceneInputs { env, assets: &assets }).map_err(|e| e.context(format!("building scene '{name}'")))
+    (entry.build)(&SceneInputs { env, assets: &assets, options: &options })
+        .map_err(|e| e.context(format!("building scene '{name}'")))
 }
 
 /// `--scene`'s parser: a registered name (listed with its summary in `--help`) or a file ending in `.gltf`,
@@ -418,10 +446,15 @@ impl clap::builder::TypedValueParser for SceneParser {
         value: &std::ffi::OsStr,
     ) -> std::result::Result<String, clap::Error> {
         let s = value.to_string_lossy().into_owned();
-        if SCENES.iter().any(|e| e.name == s) || user::is_file_spec(&s) {
+        if user::is_file_spec(&s) || find(&s).is_ok() {
             return Ok(s);
         }
         let arg = arg.map(|a| a.to_string()).unwrap_or_else(|| "--scene".into());
+        if let (true, Err(e)) = (SCENES.iter().any(|entry| s.split(':').next() == Some(entry.name)), find(&s)) {
+            // A registered scene with options it does not take, or a bad value: the option's own error.
+            let msg = format!("invalid value '{s}' for '{arg}': {e:#}\n");
+            return Err(clap::Error::raw(clap::error::ErrorKind::InvalidValue, msg).with_cmd(cmd));
+        }
         Err(clap::Error::raw(
             clap::error::ErrorKind::InvalidValue,
             format!(
@@ -433,7 +466,14 @@ impl clap::builder::TypedValueParser for SceneParser {
     }
 
     fn possible_values(&self) -> Option<Box<dyn Iterator<Item = clap::builder::PossibleValue> + '_>> {
-        Some(Box::new(SCENES.iter().map(|s| clap::builder::PossibleValue::new(s.name).help(s.summary)).chain(
+        let help = |s: &SceneEntry| match SCENE_OPTIONS.iter().find(|(n, _)| *n == s.name) {
+            Some((_, schema)) => {
+                let keys: Vec<&str> = schema.iter().map(|o| o.key).collect();
+                format!("{} (options: {}:{}=...)", s.summary, s.name, keys.join("=...,"))
+            }
+            None => s.summary.to_string(),
+        };
+        Some(Box::new(SCENES.iter().map(move |s| clap::builder::PossibleValue::new(s.name).help(help(s))).chain(
             std::iter::once(clap::builder::PossibleValue::new("FILE").help(
                 "a .gltf, .glb or .obj model (framed on a ground plane, spheres fitted and cached; --animate plays \
                      its clips) or a .toml scene description (docs/scene-files.md)",

@@ -194,6 +194,8 @@ pub enum ClipChoice {
     All,
     /// One clip (an index into the rig's clips), looping.
     One(usize),
+    /// One clip, looping, `phase` seconds into it at t = 0 (a crowd's characters out of step).
+    Phased(usize, f32),
     /// None: the model stays at rest.
     Still,
 }
@@ -224,6 +226,7 @@ impl ClipPlayer {
             let (clip, local_t) = match &m.choice {
                 ClipChoice::Still => (None, 0.0),
                 ClipChoice::One(c) => (Some(*c), t),
+                ClipChoice::Phased(c, phase) => (Some(*c), t + phase),
                 ClipChoice::All => {
                     let total: f32 = m.rig.clips.iter().map(|c| c.duration).sum();
                     let mut u = if total > 0.0 && t.is_finite() { t.rem_euclid(total) } else { 0.0 };
@@ -948,6 +951,8 @@ pub struct ModelSpec {
     /// Meshes that only receive: no blocker spheres (names as `name#primitive` or the glTF mesh's name). Default:
     /// the model's floor, if found.
     pub receivers: Option<Vec<String>>,
+    /// Seconds into `clip` at t = 0 (needs a named clip): characters of a crowd out of step.
+    pub clip_phase: Option<f32>,
 }
 
 fn unit_scale() -> [f32; 3] {
@@ -1076,6 +1081,12 @@ fn build_scene_file(
             (None, None | Some("all")) => ClipChoice::All,
             (None, Some("none")) => ClipChoice::Still,
             (None, Some(name)) => ClipChoice::One(model.rig.clip_index(name).map_err(|e| anyhow!("{key}.clip: {e}"))?),
+        };
+        let choice = match (m.clip_phase, choice) {
+            (None, c) => c,
+            (Some(p), _) if !p.is_finite() => bail!("{key}.clip_phase: {p} is not finite"),
+            (Some(p), ClipChoice::One(c)) => ClipChoice::Phased(c, p),
+            (Some(_), _) => bail!("{key}.clip_phase needs one named clip (`clip = \"NAME\"`)"),
         };
         let lights = match m.lights {
             Some(false) => None,

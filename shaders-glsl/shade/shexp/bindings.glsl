@@ -60,6 +60,8 @@ layout(std430, binding = 15) readonly buffer EnvSh { vec4 env_sh[]; };
 // whole) with its ratio vector W (Eq. 37), w_l for l = 0..7. The pool's use is counted in ClusterPool
 // (zeroed before the cluster pass). Twin: engine::passes::shade::shexp::cpu::ClusterCut.
 #define SHEXP_CLUSTER_CAP 512
+// Retries of a cluster's cut past the cap, each with sin θ_max doubled (twin: shexp::CLUSTER_COARSEN).
+#define SHEXP_CLUSTER_COARSEN 4
 struct ClusterEntry {
     vec4 sphere;
     vec4 w_lo;  // w_0..w_3

@@ -9,8 +9,10 @@
 // 2. One cut of the blocker BVH for the whole cluster (thread 0): a node is taken whole when it subtends
 //    less than θ_max from every point of the bounding sphere (Eq. 36: r_i < sin θ_max (‖P_i − p_R‖ − r_R)),
 //    leaves always; a node smaller than θ_min from every point is dropped. At most SHEXP_CLUSTER_CAP
-//    entries, taken from a pool shared by the clusters: past the cap, or when the pool is used up, the
-//    cluster is marked overflowed and its receivers cut per point as with cluster = 0 (both counted).
+//    entries, taken from a pool shared by the clusters: past the cap the cut is retried with sin θ_max
+//    doubled, up to SHEXP_CLUSTER_COARSEN times (capped at 1); past that, or when the pool is used up, the
+//    cluster is marked overflowed and its receivers cut per point as with cluster = 0
+//    (both counted).
 // 3. The ratio vector W of each node taken whole (threads in parallel): the bounding log vector f_b of its
 //    sphere at p* and the detailed f_d = Σ of its leaves' circle logs at p* (leaves below θ_min from p*
 //    dropped), then per band w_l = Σ_m f_b,lm f_d,lm / Σ_m f_b,lm² (Eq. 37). A leaf has W = 1. Both are
@@ -199,7 +201,15 @@ void main() {
         uint count = 0u;
         bool overflow = false;
         uint whole = 0u;
-        if (!empty && shx.sphere_count > 0u) {
+        // A cut past the cap is retried with sin θ_max doubled (at most SHEXP_CLUSTER_COARSEN times, up to 1):
+        // coarser, but still the cluster's cut with ratio vectors, which agrees with the clusters around it.
+        // The per-receiver cut of an overflowed cluster has no ratio vectors: its nodes taken whole (groups of
+        // characters' bounding spheres) darkened whole tiles of `crowd` (issue 44).
+        float sin_max = shx.sin_theta_max;
+        for (uint attempt = 0u; !empty && shx.sphere_count > 0u; ++attempt) {
+            count = 0u;
+            overflow = false;
+            whole = 0u;
             vec4 receiver = vec4(centre, radius);
             BvhCursor cur = bvh_cursor_begin(shx.sphere_count);
             uint v;
@@ -208,7 +218,7 @@ void main() {
                 vec4 s = bvh_sphere(nd);
                 if (s.w < shx.sin_theta_min * (distance(centre, s.xyz) - radius)) continue;
                 bool leaf = bvh_is_leaf(nd);
-                if (leaf || bvh_subtends_less_than(receiver, s, shx.sin_theta_max)
+                if (leaf || bvh_subtends_less_than(receiver, s, sin_max)
                     || !bvh_cursor_push_children(cur, nd.left, nd.right)) {
                     if (count == uint(SHEXP_CLUSTER_CAP)) {
                         overflow = true;
@@ -219,6 +229,8 @@ void main() {
                     if (!leaf) whole += 1u;
                 }
             }
+            if (!overflow || attempt >= uint(SHEXP_CLUSTER_COARSEN) || !(sin_max > 0.0) || sin_max >= 1.0) break;
+            sin_max = min(2.0 * sin_max, 1.0);
         }
         uint state = overflow ? 1u : 0u;
         uint base = 0u;

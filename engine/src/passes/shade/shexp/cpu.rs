@@ -96,8 +96,8 @@ impl Twin {
 
     /// The receiver-cluster pass (shaders-glsl/shade/shexp/clusters.glsl) for one cluster: `items` its
     /// receivers' positions in the shader's order (row-major in the tile, or vertex order), `nodes` the
-    /// GPU's BVH over `sphere_count` spheres. `None` when the cut exceeds [`super::CLUSTER_CAP`] (the shader
-    /// then cuts per receiver). The bounding sphere, p*, the cut and W as the shader computes them.
+    /// GPU's BVH over `sphere_count` spheres. `None` when the cut exceeds [`super::CLUSTER_CAP`] even after
+    /// [`super::CLUSTER_COARSEN`] coarser retries (the shader then cuts per receiver). The bounding sphere, p*, the cut and W as the shader computes them.
     pub fn cluster_cut(&self, nodes: &[GpuBvhNode], sphere_count: u32, items: &[DVec3]) -> Option<ClusterCut> {
         self.cluster_cut_grown(nodes, sphere_count, items, 0.0)
     }
@@ -129,17 +129,27 @@ impl Twin {
             }
         }
         let o = &self.options;
-        let sin_max = o.theta_max_deg.to_radians().sin() as f32 as f64;
+        let mut sin_max = o.theta_max_deg.to_radians().sin() as f32 as f64;
         let sin_min = o.theta_min_deg.to_radians().sin() as f32 as f64;
         let receiver = Sphere::new(centre, radius);
-        let cut = traverse::cut_dropping(
-            nodes,
-            sphere_count,
-            &receiver,
-            sin_max,
-            |s| s.radius < sin_min * (s.center.distance(centre) - radius),
-            traverse::STACK_SIZE,
-        );
+        // Past the cap, retried with sin θ_max doubled (as the shader: at most CLUSTER_COARSEN times, up to 1).
+        let mut attempt = 0;
+        let cut = loop {
+            let cut = traverse::cut_dropping(
+                nodes,
+                sphere_count,
+                &receiver,
+                sin_max,
+                |s| s.radius < sin_min * (s.center.distance(centre) - radius),
+                traverse::STACK_SIZE,
+            );
+            let fits = cut.nodes.len() <= super::CLUSTER_CAP as usize;
+            if fits || attempt >= super::CLUSTER_COARSEN || sin_max <= 0.0 || sin_max >= 1.0 {
+                break cut;
+            }
+            sin_max = (2.0 * sin_max).min(1.0);
+            attempt += 1;
+        };
         if cut.nodes.len() > super::CLUSTER_CAP as usize {
             return None;
         }

@@ -414,6 +414,9 @@ pub const MAX_BAKE_BYTES: u64 = 256 << 20;
 
 /// `SHEXP_CLUSTER_CAP` of shaders-glsl/shade/shexp/bindings.glsl: cut entries per receiver cluster.
 pub const CLUSTER_CAP: u32 = 512;
+/// `SHEXP_CLUSTER_COARSEN` of bindings.glsl: a cluster's cut past [`CLUSTER_CAP`] is retried this many times at
+/// most, each with sin θ_max doubled (capped at 1), before its receivers cut per point.
+pub const CLUSTER_COARSEN: u32 = 4;
 /// Entries in the shared pool per cluster: the number of blocker spheres (no cut is longer), at most this
 /// (then the clusters' average cut may be this long, one cluster's up to [`CLUSTER_CAP`]).
 pub const CLUSTER_POOL_AVERAGE: u32 = 256;
