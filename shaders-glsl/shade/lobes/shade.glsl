@@ -32,7 +32,10 @@
 //   multiply by their visibility: 1 − o/π (o their exact cosine-weighted solid angle) weighted by the
 //   environment light they hide and leave free (lobes_env_planes). Glossy: the shared prefiltered
 //   term times the diffuse visibility (luminance ratio).
-// Overflow (more blockers in a mask's cone than LOBES_MAX_BLOCKERS after the coarsest cut) is counted in LobesStats.
+// Overflow (more blockers in a mask's cone than LOBES_MAX_BLOCKERS after the coarsest cut) drops the narrowest
+// caps and is counted in LobesStats,
+// with a bound on the shadow the dropped blockers cast (g_dropped): its sum, the largest over receivers, and the
+// receivers where it passes 1 %.
 #include "../common.glsl"
 #include "../prefiltered.glsl"
 #include "../lights.glsl"
@@ -81,7 +84,9 @@ layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
 // [3] products pruned by the threshold, [4] shadow leaves, [5] receivers whose environment mask
 // overflowed, [6] receivers where some light's mask overflowed. Cumulative (the host resets it).
-layout(std430, binding = 15) buffer LobesStats { uint lobes_stats[8]; };
+// Counters (twin: engine::passes::shade::lobes::STATS_LEN).
+#define LOBES_STATS 14
+layout(std430, binding = 15) buffer LobesStats { uint lobes_stats[LOBES_STATS]; };
 layout(std430, binding = 21) readonly buffer BlockerPlanes {
     uint plane_count;
     BlockerPlane blocker_planes[];  // at least one record (zero when plane_count = 0)
@@ -264,6 +269,20 @@ vec3 g_n;
 vec4 g_blockers[LOBES_MAX_BLOCKERS];
 uint g_blocker_count;
 bool g_overflow;
+// Σ sin²(β/2) over the caps this mask's gather dropped: their solid angles over 4π. A bound on the share of the
+// light they could hide (twin: cpu::dropped_share): 4 Σ sin²(β/2) of the cosine-weighted sky (a cap's solid angle
+// over π bounds its cosine-weighted share), Σ sin²(β/2) / sin²(α/2) of a light of angular radius α.
+float g_dropped;
+// The narrowest-first drop (lobes_gather): caps narrower than g_min_width (sin(β/2)) are dropped; the count of the
+// visited caps per width bin (lobes_width_bin) of the last cut.
+#define LOBES_WIDTH_BINS 8
+float g_min_width;
+bool g_count_widths;  // only the pass that chooses g_min_width counts
+uvec4 g_width_bins_lo;  // bins 0..3
+uvec4 g_width_bins_hi;  // bins 4..7
+// This receiver's largest dropped share over its environment mask and over its lights' masks.
+float g_dropped_env;
+float g_dropped_light;
 vec3 g_axis;
 float g_cos_mask;
 // env=map: the environment light the normal's mask leaves free, Σ over its free cells and the uncovered
@@ -284,20 +303,36 @@ bool g_budget_hit;  // some mask of this receiver stopped refining at its work b
 // while the cloth's environment lights (the courtyard's windows, low over the sheet) drew the grid again with the
 // plain rule: cloth at rest 21.8 -> 16.9 % vs the triangles with α. Twin: cpu::Twin::collect.
 bool g_alpha_rule;
+// The bin of a cap's width sin(β/2) (lobes_gather's narrowest-first drop): k for sin(β/2) in [2^-(k+1), 2^-k),
+// 7 below 2^-7 (β under 0.9°).
+uint lobes_width_bin(float sb) {
+    return uint(clamp(floor(-log2(max(sb, 1e-30))), 0.0, float(LOBES_WIDTH_BINS - 1)));
+}
+
 void lobes_light_visit(vec4 s) {
     vec4 b;
     if (!(g_alpha_rule ? blocker_for_receiver_alpha(g_p, g_n, s, b) : blocker_for_receiver(g_p, g_n, s, b))) return;
     if (!(b.w > 0.0)) return;
-    if (g_blocker_count >= uint(LOBES_MAX_BLOCKERS)) {
-        g_overflow = true;
-        return;
-    }
     vec3 d = b.xyz - g_p;
     float l = length(d);
     vec3 dir = l > 0.0 ? d / l : g_n;
-    g_blockers[g_blocker_count] = vec4(dir, sin(0.5 * sphere_subtended_half_angle(g_p, b)));
+    float beta = sphere_subtended_half_angle(g_p, b);
+    float sb = sin(0.5 * beta);
+    if (g_count_widths) {
+        // Vector compares, not an indexed private array (which slowed every mask on llvmpipe).
+        uvec4 bin = uvec4(lobes_width_bin(sb));
+        g_width_bins_lo += uvec4(equal(bin, uvec4(0u, 1u, 2u, 3u)));
+        g_width_bins_hi += uvec4(equal(bin, uvec4(4u, 5u, 6u, 7u)));
+    }
+    if (sb < g_min_width || g_blocker_count >= uint(LOBES_MAX_BLOCKERS)) {
+        g_overflow = g_overflow || sb >= g_min_width;
+        g_dropped += sb * sb;
+        return;
+    }
+    g_blockers[g_blocker_count] = vec4(dir, sb);
     g_blocker_count += 1u;
 }
+
 
 // Whether BVH node s, seen from p, may be taken whole (its bounding sphere as one blocker) in a mask
 // about `axis`: its angular diameter 2β is below `cells` (= take_whole × the gnomonic side w of a cell at
@@ -326,6 +361,7 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float corner, float cells) {
     g_n = n;
     g_blocker_count = 0u;
     g_overflow = false;
+    g_dropped = 0.0;
     BvhCursor c = bvh_cursor_begin(lp.sphere_count);
     uint v;
     while (bvh_cursor_next(c, v)) {
@@ -344,15 +380,40 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float corner, float cells) {
 
 // The blockers of the mask about `axis` (square half-side tan_half, maximal depth `depth`): the cut
 // with take_whole cells; while it overflows LOBES_MAX_BLOCKERS, again with take_whole doubled, at most
-// `coarsen` times (then the last cut's excess is dropped and g_overflow stays set). Twin: cpu::Twin::gather.
+// `coarsen` times; if the coarsest still overflows, the first cut again keeping its widest caps (below) and
+// g_overflow set. Twin: cpu::Twin::gather.
 void lobes_gather(vec3 p, vec3 n, vec3 axis, float tan_half, uint depth) {
     float corner = atan(tan_half * sqrt(2.0));
     float cells = lp.take_whole * 2.0 * tan_half / float(1u << min(depth, uint(LOBES_MAX_DEPTH)));
+    g_min_width = 0.0;
+    g_count_widths = false;
+    float first = cells;
     for (uint i = 0u;; ++i) {
         lobes_collect(p, n, axis, corner, cells);
         if (!g_overflow || !(cells > 0.0) || i >= lp.coarsen) break;
         cells *= 2.0;
     }
+    if (!g_overflow) return;
+    cells = first;
+    g_width_bins_lo = uvec4(0u);
+    g_width_bins_hi = uvec4(0u);
+    g_count_widths = true;
+    lobes_collect(p, n, axis, corner, cells);
+    g_count_widths = false;
+    // Still too many: the same cut again, keeping the widest caps (the nearest blockers, whose shadow matters
+    // most): the widest width bins that fit together, the narrower ones dropped (their shadow bounded in g_dropped).
+    uint kept = 0u;
+    float min_width = 1.0;
+    for (uint k = 0u; k < uint(LOBES_WIDTH_BINS); ++k) {
+        uint count = k < 4u ? g_width_bins_lo[k] : g_width_bins_hi[k - 4u];
+        if (kept + count > uint(LOBES_MAX_BLOCKERS)) break;
+        kept += count;
+        min_width = k + 1u < uint(LOBES_WIDTH_BINS) ? exp2(-float(k + 1u)) : 0.0;
+    }
+    g_min_width = min_width;
+    lobes_collect(p, n, axis, corner, cells);
+    g_min_width = 0.0;
+    g_overflow = true;
 }
 
 // The bit mask of blockers 0 .. count − 1 (count ≤ 64).
@@ -708,7 +769,10 @@ vec3 lobes_env_mask(vec3 p, vec3 n, Lobe rl[LOBES_MAX_R], float u_lum, out bool 
     g_alpha_rule = true;
     lobes_gather(p, n, n, tan_half, lp.depth + 1u);
     g_alpha_rule = false;
-    if (g_overflow) overflow |= 1u;
+    if (g_overflow) {
+        overflow |= 1u;
+        g_dropped_env = max(g_dropped_env, min(4.0 * g_dropped, 1.0));
+    }
 #if LOBES_PHASE < 3
     return vec3(float(g_blocker_count) * 1e-30);
 #endif
@@ -722,6 +786,8 @@ vec3 shade_point(ShadePoint sp) {
     vec3 n = sp.normal;
     vec3 p = sp.position;
     uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
+    g_dropped_env = 0.0;
+    g_dropped_light = 0.0;
     g_budget_hit = false;
     g_alpha_rule = false;
 
@@ -838,7 +904,11 @@ vec3 shade_point(ShadePoint sp) {
                 g_alpha_rule = lp.light_alpha != 0u;
                 if (lp.sphere_count > 0u) lobes_gather(p, n, axis, tan_half, lp.depth);
                 g_alpha_rule = false;
-                if (g_overflow) overflow |= 2u;
+                if (g_overflow) {
+                    overflow |= 2u;
+                    float sa = sin(0.5 * alpha);
+                    g_dropped_light = max(g_dropped_light, min(g_dropped / max(sa * sa, 1e-30), 1.0));
+                }
                 g_p = p;
                 vec3 t, b;
                 orthonormal_basis(axis, t, b);
@@ -875,5 +945,13 @@ vec3 shade_point(ShadePoint sp) {
     atomicAdd(lobes_stats[3], pruned);
     atomicAdd(lobes_stats[4], leaves);
     if (g_budget_hit) atomicAdd(lobes_stats[7], 1u);
+    // Non-negative floats order as their bits.
+    if (g_dropped_env > 0.0) atomicMax(lobes_stats[8], floatBitsToUint(g_dropped_env));
+    if (g_dropped_light > 0.0) atomicMax(lobes_stats[9], floatBitsToUint(g_dropped_light));
+    if (g_dropped_env > 0.01) atomicAdd(lobes_stats[10], 1u);
+    if (g_dropped_light > 0.01) atomicAdd(lobes_stats[11], 1u);
+    // Sums in thousandths (each at most 1000: 2^32 holds 4.29 million receivers).
+    atomicAdd(lobes_stats[12], uint(round(1000.0 * g_dropped_env)));
+    atomicAdd(lobes_stats[13], uint(round(1000.0 * g_dropped_light)));
     return result;
 }

@@ -3,7 +3,8 @@
 //! cell order, classification, leaf lobes and weights), the same environment occlusion, in f64.
 //! The blockers are gathered by the shader's cut of the blocker BVH ([`TwinBvh`]: the same node array,
 //! the same traversal order, the same take-whole rule [`node_is_small`] and the same coarsening
-//! retries), so the twin drops the same blockers when a mask overflows.
+//! retries, the same choice of the narrowest caps to drop), so the twin drops the same blockers when a mask
+//! overflows.
 //! Covers `light=lobes` (both light scales, both leaf modes); `light=ratio` reuses the same S/U.
 
 use super::{Leaves, LobesOptions};
@@ -39,6 +40,28 @@ pub struct TwinLight {
     pub center: DVec3,
     pub radius: f64,
     pub radiance: [f64; 3],
+}
+
+/// Width bins of [`width_bin`] (LOBES_WIDTH_BINS).
+const WIDTH_BINS: usize = 8;
+
+/// The bin of a cap's width w = sin(β/2) (the shader's `lobes_width_bin`): k for w in [2^-(k+1), 2^-k), the last
+/// bin below 2^-7. A mask whose coarsest cut still overflows keeps the widest bins that fit.
+pub fn width_bin(w: f64) -> usize {
+    (-(w.max(1e-30)).log2()).floor().clamp(0.0, (WIDTH_BINS - 1) as f64) as usize
+}
+
+/// The share of the light a dropped blocker's cap of half-angle `beta` could hide (the shader's `g_dropped`): in
+/// the environment's mask (`light_alpha` None) its solid angle over π, 4 sin²(β/2), which bounds its
+/// cosine-weighted share of the sky; for a light of angular radius α, its solid angle over the light's,
+/// sin²(β/2) / sin²(α/2). Summed over a mask's dropped caps (clamped to 1) it bounds what they hide, loosely: the
+/// caps may overlap each other or miss the light.
+pub fn dropped_share(beta: f64, light_alpha: Option<f64>) -> f64 {
+    let s2 = (0.5 * beta).sin().powi(2);
+    match light_alpha {
+        None => 4.0 * s2,
+        Some(alpha) => s2 / (0.5 * alpha).sin().powi(2).max(1e-30),
+    }
 }
 
 /// One receiver: position, unit shading normal, unit direction to the viewer, diffuse albedo and an
@@ -403,7 +426,7 @@ impl Twin {
     /// The shader's `lobes_gather`: the blockers of the mask about `axis` (square half-side `tan_half`,
     /// maximal depth `depth`) as (direction, half-angle), from the cut with `take_whole` cells, retried
     /// with the threshold doubled while it overflows [`super::MAX_BLOCKERS`], at most `coarsen` times;
-    /// and whether the last cut still overflowed (its excess dropped). The environment's masks see each sphere
+    /// and whether the last cut still overflowed (its narrowest caps dropped). The environment's masks see each sphere
     /// through SHEXP §6.2's rules with the radius scale α, a light's through the plain rules (the shader's
     /// `lobes_light_visit`).
     #[allow(clippy::too_many_arguments)]
@@ -420,20 +443,39 @@ impl Twin {
         let o = &self.options;
         let corner = (tan_half * 2f64.sqrt()).atan();
         let mut cells = o.take_whole as f32 as f64 * 2.0 * tan_half / (1u32 << depth.min(super::MAX_DEPTH)) as f64;
+        let first = cells;
+        // The lights' masks take α with `light_rule=alpha` (the twin has no scene: `auto` is plain here).
+        let alpha = kind != MaskKind::Light || o.light_rule == super::LightRule::Alpha;
         let mut i = 0;
         loop {
-            // The lights' masks take α with `light_rule=alpha` (the twin has no scene: `auto` is plain here).
-            let alpha = kind != MaskKind::Light || o.light_rule == super::LightRule::Alpha;
-            let (blockers, overflow) = Self::collect(p, n, axis, corner, cells, spheres, alpha);
-            if !overflow || cells.is_nan() || cells <= 0.0 || i >= o.coarsen {
-                return (blockers, overflow);
+            let (blockers, overflow, _) = Self::collect(p, n, axis, corner, cells, spheres, alpha, 0.0);
+            if !overflow {
+                return (blockers, false);
+            }
+            if cells.is_nan() || cells <= 0.0 || i >= o.coarsen {
+                break;
             }
             cells *= 2.0;
             i += 1;
         }
+        // Still too many: the first cut again, keeping its widest caps: the widest width bins that fit together.
+        let (_, _, bins) = Self::collect(p, n, axis, corner, first, spheres, alpha, 0.0);
+        let (mut kept, mut min_width) = (0, 1.0);
+        for (k, &count) in bins.iter().enumerate() {
+            if kept + count > super::MAX_BLOCKERS {
+                break;
+            }
+            kept += count;
+            min_width = if k + 1 < WIDTH_BINS { (-((k + 1) as f64)).exp2() } else { 0.0 };
+        }
+        let (blockers, _, _) = Self::collect(p, n, axis, corner, first, spheres, alpha, min_width);
+        (blockers, true)
     }
 
-    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only); `alpha`: the receiver rules with α.
+    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only); `alpha`: the receiver rules with α; caps
+    /// narrower than `min_width` (sin(β/2)) dropped. Returns the blockers kept, whether one that was not narrower
+    /// found no room, and the count of every visited cap per width bin ([`width_bin`]).
+    #[allow(clippy::too_many_arguments)]
     fn collect(
         p: DVec3,
         n: DVec3,
@@ -442,8 +484,10 @@ impl Twin {
         cells: f64,
         bvh: &TwinBvh,
         alpha: bool,
-    ) -> (Vec<(DVec3, f64)>, bool) {
+        min_width: f64,
+    ) -> (Vec<(DVec3, f64)>, bool, [usize; WIDTH_BINS]) {
         let cone = Cone::new(p, axis, corner);
+        let mut bins = [0; WIDTH_BINS];
         let mut blockers = Vec::new();
         let mut overflow = false;
         let mut stack: Vec<u32> = if bvh.is_empty() { Vec::new() } else { vec![0] };
@@ -465,15 +509,19 @@ impl Twin {
             if b.radius <= 0.0 {
                 continue;
             }
-            if blockers.len() >= super::MAX_BLOCKERS {
-                overflow = true;
-                continue;
-            }
             let d = b.center - p;
             let dir = if d.length() > 0.0 { d.normalize() } else { n };
-            blockers.push((dir, subtended_half_angle(p, &b)));
+            let beta = subtended_half_angle(p, &b);
+            // The shader stores and compares sin(β/2) in f32.
+            let width = (0.5 * beta).sin();
+            bins[width_bin(width)] += 1;
+            if width < min_width || blockers.len() >= super::MAX_BLOCKERS {
+                overflow |= width >= min_width;
+                continue;
+            }
+            blockers.push((dir, beta));
         }
-        (blockers, overflow)
+        (blockers, overflow, bins)
     }
 
     /// The lobe of a mask cell (the shader's `lobes_cell_lobe`): the cap lobe of its bounding cone

@@ -21,7 +21,7 @@
 //!   exact cosine-weighted solid angle, weighted by the environment they hide and leave free.
 //!
 //! Bounds per invocation: [`MAX_BLOCKERS`] blockers per light (more are counted as overflow in
-//! [`LobesStats`] and dropped), quad-tree depth ≤ 6 (stack 19 cells), [`MASK_WORK_BUDGET`] per mask (the
+//! [`LobesStats`]; the narrowest caps are dropped, with a bound on the shadow they cast: [`cpu::dropped_share`]), quad-tree depth ≤ 6 (stack 19 cells), [`MASK_WORK_BUDGET`] per mask (the
 //! receivers that reach it are counted), four reflectance lobes (Lambert and up to three Lafortune lobes).
 //! [`cpu`] is the f64 twin of the per-receiver computation.
 
@@ -131,7 +131,7 @@ pub const OPTIONS: &[OptionSpec] = &[
         aliases: &[],
         kind: Kind::Int { min: 0, max: 8 },
         default: Some("4"),
-        help: "when a mask's cut still holds more than 64 blockers, retry it with `take_whole` doubled up to this many times before dropping (and counting) the rest",
+        help: "when a mask's cut still holds more than 64 blockers, retry it with `take_whole` doubled up to this many times before dropping (and counting) its narrowest caps",
     },
     OptionSpec {
         key: "budget",
@@ -428,13 +428,16 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
     }
 }
 
+/// The counters the shader accumulates (LOBES_STATS of shade.glsl).
+const STATS_LEN: usize = 14;
+
 /// The counters the shader accumulates (cumulative since the last [`Lobes::reset_stats`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LobesStats {
     /// Receivers shaded.
     pub receivers: u64,
     /// Receivers where some mask's cut (the coarsest tried) held more than [`MAX_BLOCKERS`] blockers
-    /// (the rest dropped).
+    /// (the narrowest caps dropped).
     pub overflowed: u64,
     /// Lobe products computed.
     pub products: u64,
@@ -449,6 +452,19 @@ pub struct LobesStats {
     /// Receivers where some mask stopped refining at [`MASK_WORK_BUDGET`] (its later cells became leaves at
     /// their depth: a coarser mask there, not a dropped blocker).
     pub budget_limited: u64,
+    /// The largest share of the cosine-weighted sky that the blockers an environment mask dropped could hide at
+    /// one receiver (a bound on the shadow they cast: [`cpu::dropped_share`]); 0 when none was dropped.
+    pub dropped_env_max: f64,
+    /// The largest share of a light that the blockers its mask dropped could hide at one receiver.
+    pub dropped_light_max: f64,
+    /// Receivers where the environment's dropped share passes 1 %.
+    pub dropped_env_over_1pc: u64,
+    /// Receivers where some light's dropped share passes 1 %.
+    pub dropped_light_over_1pc: u64,
+    /// The environment's dropped shares summed over the receivers (in thousandths, each at most 1).
+    pub dropped_env_sum: f64,
+    /// The lights' largest dropped shares summed over the receivers (in thousandths, each at most 1).
+    pub dropped_light_sum: f64,
 }
 
 /// The work per shaded receiver (none before any receiver was shaded): lobe products computed (each
@@ -476,13 +492,21 @@ pub fn overflow_warning(s: &LobesStats) -> Option<String> {
     (s.overflowed > 0).then(|| {
         format!(
             "lobes: {} of {} shaded receivers ({:.1} %) had more than {MAX_BLOCKERS} blockers in a light's or the \
-             environment's mask cone even after coarsening the cut (environment masks {}, light masks {}); the rest \
-             were dropped (too little shadow there)",
+             environment's mask cone even after coarsening the cut (environment masks {}, light masks {}); the \
+             narrowest (farthest) were dropped; their shadow is bounded by {:.2} % of the cosine-weighted sky on \
+             average over those receivers ({:.1} % at most, over 1 % at {} receivers) and {:.2} % of a light on \
+             average ({:.1} % at most, over 1 % at {})",
             s.overflowed,
             s.receivers,
             100.0 * s.overflowed as f64 / s.receivers.max(1) as f64,
             s.env_overflowed,
             s.light_overflowed,
+            100.0 * s.dropped_env_sum / s.env_overflowed.max(1) as f64,
+            100.0 * s.dropped_env_max,
+            s.dropped_env_over_1pc,
+            100.0 * s.dropped_light_sum / s.light_overflowed.max(1) as f64,
+            100.0 * s.dropped_light_max,
+            s.dropped_light_over_1pc,
         )
     })
 }
@@ -549,6 +573,7 @@ impl Lobes {
         let Some(b) = &self.stats else { return Ok(LobesStats::default()) };
         let v: Vec<u32> = gpu.read_buffer(b)?;
         let g = |i: usize| v.get(i).copied().unwrap_or(0) as u64;
+        let f = |i: usize| f32::from_bits(v.get(i).copied().unwrap_or(0)) as f64;
         Ok(LobesStats {
             receivers: g(0),
             overflowed: g(1),
@@ -558,13 +583,19 @@ impl Lobes {
             env_overflowed: g(5),
             light_overflowed: g(6),
             budget_limited: g(7),
+            dropped_env_max: f(8),
+            dropped_light_max: f(9),
+            dropped_env_over_1pc: g(10),
+            dropped_light_over_1pc: g(11),
+            dropped_env_sum: g(12) as f64 / 1000.0,
+            dropped_light_sum: g(13) as f64 / 1000.0,
         })
     }
 
     /// Zero the counters.
     pub fn reset_stats(&self, gpu: &Gpu) -> Result<()> {
         match &self.stats {
-            Some(b) => gpu.copy_to_buffer(b, bytemuck::cast_slice(&[0u32; 8])),
+            Some(b) => gpu.copy_to_buffer(b, bytemuck::cast_slice(&[0u32; STATS_LEN])),
             None => Ok(()),
         }
     }
@@ -634,7 +665,7 @@ impl Technique for Lobes {
             }
         };
         if self.stats.is_none() {
-            match gpu.upload_buffer("lobes-stats", BufferDesc::gpu_only(0), &[0u32; 8]) {
+            match gpu.upload_buffer("lobes-stats", BufferDesc::gpu_only(0), &[0u32; STATS_LEN]) {
                 Ok(b) => self.stats = Some(b),
                 Err(e) => {
                     gpu.destroy_buffer(params);
