@@ -273,10 +273,13 @@ bool g_overflow;
 // light they could hide (twin: cpu::dropped_share): 4 Σ sin²(β/2) of the cosine-weighted sky (a cap's solid angle
 // over π bounds its cosine-weighted share), Σ sin²(β/2) / sin²(α/2) of a light of angular radius α.
 float g_dropped;
-// The narrowest-first drop (lobes_gather): caps narrower than g_min_width (sin(β/2)) are dropped; the count of the
-// visited caps per width bin (lobes_width_bin) of the last cut.
+// The narrowest-first drop (lobes_gather): caps at least g_min_width wide (sin(β/2)) are kept, those of the next
+// width bin down ([g_boundary_low, g_min_width)) while g_boundary_room lasts, in traversal order, the rest dropped;
+// the count of the visited caps per width bin (lobes_width_bin) of the last cut.
 #define LOBES_WIDTH_BINS 8
 float g_min_width;
+float g_boundary_low;
+uint g_boundary_room;
 bool g_count_widths;  // only the pass that chooses g_min_width counts
 uvec4 g_width_bins_lo;  // bins 0..3
 uvec4 g_width_bins_hi;  // bins 4..7
@@ -324,8 +327,14 @@ void lobes_light_visit(vec4 s) {
         g_width_bins_lo += uvec4(equal(bin, uvec4(0u, 1u, 2u, 3u)));
         g_width_bins_hi += uvec4(equal(bin, uvec4(4u, 5u, 6u, 7u)));
     }
-    if (sb < g_min_width || g_blocker_count >= uint(LOBES_MAX_BLOCKERS)) {
-        g_overflow = g_overflow || sb >= g_min_width;
+    if (sb < g_min_width) {
+        if (sb < g_boundary_low || g_boundary_room == 0u) {
+            g_dropped += sb * sb;
+            return;
+        }
+        g_boundary_room -= 1u;
+    } else if (g_blocker_count >= uint(LOBES_MAX_BLOCKERS)) {
+        g_overflow = true;
         g_dropped += sb * sb;
         return;
     }
@@ -394,23 +403,27 @@ void lobes_gather(vec3 p, vec3 n, vec3 axis, float tan_half, uint depth) {
         cells *= 2.0;
     }
     if (!g_overflow) return;
+    // Still too many: the first cut again, keeping its widest caps (the nearest blockers, whose shadow matters
+    // most): the widest width bins that fit together, then the next bin's caps in traversal order while there is
+    // room (so that one more blocker drops one, not a whole bin), the rest dropped (their shadow bounded in
+    // g_dropped). One walk counts the caps per bin, a second keeps them.
     cells = first;
     g_width_bins_lo = uvec4(0u);
     g_width_bins_hi = uvec4(0u);
     g_count_widths = true;
     lobes_collect(p, n, axis, corner, cells);
     g_count_widths = false;
-    // Still too many: the same cut again, keeping the widest caps (the nearest blockers, whose shadow matters
-    // most): the widest width bins that fit together, the narrower ones dropped (their shadow bounded in g_dropped).
     uint kept = 0u;
-    float min_width = 1.0;
+    uint full = 0u;
     for (uint k = 0u; k < uint(LOBES_WIDTH_BINS); ++k) {
         uint count = k < 4u ? g_width_bins_lo[k] : g_width_bins_hi[k - 4u];
         if (kept + count > uint(LOBES_MAX_BLOCKERS)) break;
         kept += count;
-        min_width = k + 1u < uint(LOBES_WIDTH_BINS) ? exp2(-float(k + 1u)) : 0.0;
+        full = k + 1u;
     }
-    g_min_width = min_width;
+    g_min_width = exp2(-float(full));
+    g_boundary_low = full + 1u < uint(LOBES_WIDTH_BINS) ? exp2(-float(full + 1u)) : 0.0;
+    g_boundary_room = uint(LOBES_MAX_BLOCKERS) - kept;
     lobes_collect(p, n, axis, corner, cells);
     g_min_width = 0.0;
     g_overflow = true;

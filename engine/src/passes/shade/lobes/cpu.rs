@@ -42,6 +42,16 @@ pub struct TwinLight {
     pub radiance: [f64; 3],
 }
 
+/// Which caps a cut keeps (the shader's g_min_width, g_boundary_low, g_boundary_room).
+#[derive(Clone, Copy)]
+enum Keep {
+    /// All, up to [`super::MAX_BLOCKERS`].
+    All,
+    /// Those at least `min_width` wide (sin(β/2)), then `boundary_room` of those in [`boundary_low`, `min_width`)
+    /// in traversal order.
+    Widest { min_width: f64, boundary_low: f64, boundary_room: usize },
+}
+
 /// Width bins of [`width_bin`] (LOBES_WIDTH_BINS).
 const WIDTH_BINS: usize = 8;
 
@@ -448,7 +458,7 @@ impl Twin {
         let alpha = kind != MaskKind::Light || o.light_rule == super::LightRule::Alpha;
         let mut i = 0;
         loop {
-            let (blockers, overflow, _) = Self::collect(p, n, axis, corner, cells, spheres, alpha, 0.0);
+            let (blockers, overflow, _) = Self::collect(p, n, axis, corner, cells, spheres, alpha, Keep::All);
             if !overflow {
                 return (blockers, false);
             }
@@ -458,23 +468,29 @@ impl Twin {
             cells *= 2.0;
             i += 1;
         }
-        // Still too many: the first cut again, keeping its widest caps: the widest width bins that fit together.
-        let (_, _, bins) = Self::collect(p, n, axis, corner, first, spheres, alpha, 0.0);
-        let (mut kept, mut min_width) = (0, 1.0);
+        // Still too many: the first cut again, keeping its widest caps: the widest width bins that fit together,
+        // then the next bin's caps in traversal order while there is room.
+        let (_, _, bins) = Self::collect(p, n, axis, corner, first, spheres, alpha, Keep::All);
+        let (mut kept, mut full) = (0, 0);
         for (k, &count) in bins.iter().enumerate() {
             if kept + count > super::MAX_BLOCKERS {
                 break;
             }
             kept += count;
-            min_width = if k + 1 < WIDTH_BINS { (-((k + 1) as f64)).exp2() } else { 0.0 };
+            full = k + 1;
         }
-        let (blockers, _, _) = Self::collect(p, n, axis, corner, first, spheres, alpha, min_width);
+        let keep = Keep::Widest {
+            min_width: (-(full as f64)).exp2(),
+            boundary_low: if full + 1 < WIDTH_BINS { (-((full + 1) as f64)).exp2() } else { 0.0 },
+            boundary_room: super::MAX_BLOCKERS - kept,
+        };
+        let (blockers, _, _) = Self::collect(p, n, axis, corner, first, spheres, alpha, keep);
         (blockers, true)
     }
 
-    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only); `alpha`: the receiver rules with α; caps
-    /// narrower than `min_width` (sin(β/2)) dropped. Returns the blockers kept, whether one that was not narrower
-    /// found no room, and the count of every visited cap per width bin ([`width_bin`]).
+    /// The shader's `lobes_collect`: one cut (cells = 0: leaves only); `alpha`: the receiver rules with α; `keep`:
+    /// which caps it keeps. Returns the blockers kept, whether one it would keep found no room, and the count of
+    /// every visited cap per width bin ([`width_bin`]).
     #[allow(clippy::too_many_arguments)]
     fn collect(
         p: DVec3,
@@ -484,8 +500,12 @@ impl Twin {
         cells: f64,
         bvh: &TwinBvh,
         alpha: bool,
-        min_width: f64,
+        keep: Keep,
     ) -> (Vec<(DVec3, f64)>, bool, [usize; WIDTH_BINS]) {
+        let (min_width, boundary_low, mut boundary_room) = match keep {
+            Keep::All => (0.0, 0.0, 0),
+            Keep::Widest { min_width, boundary_low, boundary_room } => (min_width, boundary_low, boundary_room),
+        };
         let cone = Cone::new(p, axis, corner);
         let mut bins = [0; WIDTH_BINS];
         let mut blockers = Vec::new();
@@ -515,8 +535,13 @@ impl Twin {
             // The shader stores and compares sin(β/2) in f32.
             let width = (0.5 * beta).sin();
             bins[width_bin(width)] += 1;
-            if width < min_width || blockers.len() >= super::MAX_BLOCKERS {
-                overflow |= width >= min_width;
+            if width < min_width {
+                if width < boundary_low || boundary_room == 0 {
+                    continue;
+                }
+                boundary_room -= 1;
+            } else if blockers.len() >= super::MAX_BLOCKERS {
+                overflow = true;
                 continue;
             }
             blockers.push((dir, beta));
