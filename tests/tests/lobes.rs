@@ -1028,3 +1028,21 @@ fn the_dropped_share_bounds_the_shadow_of_the_cap() {
         }
     }
 }
+
+/// Passing the 64-blocker limit does not pop (issue 46's hard case): a receiver whose environment mask holds 64
+/// equal spheres, then 65 (one more at the edge of the cloud), keeps 64 and its visibility moves by about one
+/// sphere's share, as it does from 63 to 64 where nothing is dropped.
+#[test]
+fn passing_the_blocker_limit_moves_the_visibility_by_one_blocker() {
+    let n = DVec3::Y;
+    let twin = Twin::new(&LobesOptions { take_whole: 0.0, ..Default::default() }).expect("tables");
+    let sphere = |i: usize| Sphere::new(DVec3::new(0.3 * (i % 9) as f64 - 1.2, 3.0, 0.3 * (i / 9) as f64 - 1.0), 0.05);
+    let vis = |count: usize| {
+        let spheres: Vec<Sphere> = (0..count).map(sphere).collect();
+        twin.env_visibility(DVec3::ZERO, n, &bvh(&spheres), &[])
+    };
+    let (v63, v64, v65) = (vis(63), vis(64), vis(65));
+    let (step_fits, step_over) = (v63 - v64, v64 - v65);
+    eprintln!("visibility 63: {v63:.5}, 64: {v64:.5}, 65: {v65:.5}");
+    assert!(step_over.abs() <= 2.0 * step_fits.abs() + 1e-3, "63 -> 64: {step_fits}, 64 -> 65: {step_over}");
+}
