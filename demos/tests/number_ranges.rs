@@ -1,6 +1,5 @@
-//! Issue 48, defect 4: every numeric scene-file key has the range of its command-line twin, from one table
-//! (`scenes::limits`). A scene file's `environment.rotation = -9223372036854775808` was accepted (and
-//! turned the map) while `--env-rotation` refused it.
+//! Every numeric scene-file key has the range of its command-line twin, from one table (`scenes::limits`), so
+//! that a file cannot pass what the option refuses (e.g. `environment.rotation = -9223372036854775808`).
 //!
 //! The test walks the table: for every scene-file key, values just outside its range and at f32's limits are
 //! refused by the scene-file parser with an error naming the key, and its bounds themselves (where they belong to

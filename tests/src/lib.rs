@@ -181,6 +181,24 @@ pub fn isg_lobes_as_the_gpu_reads_them(env: &engine::math::envmap::LatLongMap) -
         .collect()
 }
 
+/// Scene-file options whose sphere fit runs in a fraction of a second (`spheres` per mesh, a coarse grid, few
+/// iterations), caching under `cache`: for tests that load user models and do not measure the fit.
+pub fn small_fit_options(spheres: usize, cache: &Path) -> scenes::user::UserOptions {
+    scenes::user::UserOptions {
+        spheres: Some(spheres),
+        cache: Some(cache.to_path_buf()),
+        fit: Some(engine::blockers::fit::FitSettings {
+            grid_resolution: 10,
+            lookup_resolution: 16,
+            volume_samples: 32,
+            max_iterations: 6,
+            max_teleports: 1,
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{blessed, reference_mode_from, relative_rmse, ReferenceMode};

@@ -18,7 +18,7 @@
 //! ones: a character of `crowd` is 17 overlapping closed parts (assets/battle/troll.glb), and where two parts
 //! meet at a grazing angle the G-buffer can resolve a point a rounding error inside the other part, which every
 //! ray then leaves through that part's surface (0 of 128 samples lit at such a pixel; the proxy lights it). A
-//! wrong ray offset blackens whole regions (issue 35: every pixel under a ball) and still fails.
+//! wrong ray offset blackens whole regions (every pixel under a ball) and still fails.
 //!
 //! Every failure of every pair is collected and printed (scene, technique, check, pixels as (x, y) with the
 //! technique's and the reference's values) before the test fails, so one run shows all that remains.

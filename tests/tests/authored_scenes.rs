@@ -1,4 +1,4 @@
-//! The user's scene as its author made it (issue 47): a glTF file's cameras, its `KHR_lights_punctual` lights and
+//! The user's scene as its author made it: a glTF file's cameras, its `KHR_lights_punctual` lights and
 //! its own floor, on files our writer makes (`scenes::gltf_writer::lit_room`). CPU only: what the importer reads,
 //! what the scene builder makes of it (camera, spherical lights in engine units, floor without spheres and without
 //! the engine's ground), and the refusals, each an error naming the file and the thing refused.

@@ -5,7 +5,6 @@
 
 use engine::renderer::{RenderSettings, Renderer};
 use engine::scene::gltf_import::PHOTOMETRIC_EXPOSURE;
-use scenes::user::UserOptions;
 use std::path::PathBuf;
 
 const W: u32 = 64;
@@ -14,19 +13,7 @@ const H: u32 = 48;
 fn lit_room() -> engine::scene::Scene {
     let example = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/lit_room.gltf");
     let cache = std::env::temp_dir().join(format!("authored-gpu-{}", std::process::id()));
-    let opts = UserOptions {
-        spheres: Some(8),
-        cache: Some(cache),
-        fit: Some(engine::blockers::fit::FitSettings {
-            grid_resolution: 10,
-            lookup_resolution: 16,
-            volume_samples: 32,
-            max_iterations: 6,
-            max_teleports: 1,
-            ..Default::default()
-        }),
-        ..Default::default()
-    };
+    let opts = engine_tests::small_fit_options(8, &cache);
     scenes::load(example.to_str().unwrap(), None, &opts).expect("examples/lit_room.gltf").scene
 }
 

@@ -249,8 +249,8 @@ fn gltf_external_buffers_must_be_regular_files_of_their_length() {
     }
 }
 
-/// Issue 48, defect 1: a model names files only inside its own folder. A buffer URI of `../../../../etc/passwd`
-/// made the loader read /etc/passwd as index data. Refused, with one line naming the model and the URI: `..` out
+/// A model names files only inside its own folder: a buffer URI of `../../../../etc/passwd` must not be read as
+/// index data. Refused, with one line naming the model and the URI: `..` out
 /// of the folder, an absolute path, a symbolic link out, a `file:` URI — for a glTF's buffers and images, an OBJ's
 /// `mtllib` and a `.mtl`'s texture maps. Data URIs and files inside the folder (through links that stay inside)
 /// still load.
@@ -361,8 +361,8 @@ fn model_files_name_only_files_in_their_folder() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
-/// Issue 48, defect 2: no loader error carries a control character from the file (a mutated .hdr's FORMAT line
-/// put NUL, ^B, ^P, ^\\ and DEL on the terminal; an escape sequence would have been obeyed): text quoted from
+/// No loader error carries a control character from the file (a mutated .hdr's FORMAT line could put NUL, ^B,
+/// ^P, ^\\ and DEL on the terminal, or an escape sequence it would obey): text quoted from
 /// input is escaped as `{:?}` writes it and cut short.
 #[test]
 fn errors_never_carry_control_characters_from_the_input() {

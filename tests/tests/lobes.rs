@@ -1029,7 +1029,7 @@ fn the_dropped_share_bounds_the_shadow_of_the_cap() {
     }
 }
 
-/// Passing the 64-blocker limit does not pop (issue 46's hard case): a receiver whose environment mask holds 64
+/// Passing the 64-blocker limit does not pop: a receiver whose environment mask holds 64
 /// equal spheres, then 65 (one more at the edge of the cloud), keeps 64 and its visibility moves by about one
 /// sphere's share, as it does from 63 to 64 where nothing is dropped.
 #[test]

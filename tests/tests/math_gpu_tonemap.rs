@@ -2,8 +2,8 @@
 //! engine_math::tonemap) through shaders-glsl/tests/tonemap_twin.comp (4 floats in, 3 out per case). The CPU twin
 //! sees exactly the f32 inputs.
 //!
-//! Issue 48, defect 3: a light of radiance 1e38 rendered black. The ACES fit's x² overflowed f32 from exposed
-//! radiance ≈ 1.8e19 (inf / inf = NaN, clamped to black) and +inf was set to black outright. The cases here span
+//! A light of radiance 1e38 must render white: the ACES fit's x² overflows f32 from exposed radiance ≈ 1.8e19
+//! (inf / inf = NaN), so the fit is clamped before it, and +inf is white. The cases here span
 //! ordinary radiance, the fit's shoulder (7.25, where it reaches white, and the clamp at 16), and radiance far
 //! above it up to f32::MAX and +inf: every bright case must come out white (≥ 0.999) on the GPU, NaN black.
 //!

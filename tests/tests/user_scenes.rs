@@ -264,19 +264,7 @@ fn obj_mtl_materials_map_onto_ours() {
 }
 
 fn small_fit(cache: &Path) -> UserOptions {
-    UserOptions {
-        spheres: Some(6),
-        cache: Some(cache.to_path_buf()),
-        fit: Some(engine::blockers::fit::FitSettings {
-            grid_resolution: 10,
-            lookup_resolution: 16,
-            volume_samples: 32,
-            max_iterations: 6,
-            max_teleports: 1,
-            ..Default::default()
-        }),
-        ..Default::default()
-    }
+    engine_tests::small_fit_options(6, cache)
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! `crowd` (issue 44): N skinned characters, the battle's troll and wizard (`assets/battle/*.glb`) in turn, on a
+//! `crowd`: N skinned characters, the battle's troll and wizard (`assets/battle/*.glb`) in turn, on a
 //! grid or a ring, each walking or playing its action clip at its own phase, under the courtyard and one
 //! spherical light, seen from above. Every character has its own blocker spheres (16 fitted per mesh, shipped in
 //! `assets/battle/*-{body,prop}.spheres.json`) that follow its own skin. The hard case: thousands of skinned

@@ -666,7 +666,7 @@ fn fit_spheres_within(
 /// triangle midpoint) and moves every sphere over its points, so its cost grows with the points: a 3-million-face
 /// mesh (4.5 million points) took minutes per iteration. A larger mesh is fitted through a simplification of at
 /// most this many triangles ([`Mesh::simplified`]) and the spheres then grown to bound every vertex and midpoint
-/// of the mesh itself (docs/lab-notes.md, issue 48: the fit's outside volume on a 262k-triangle mesh, direct and
+/// of the mesh itself (docs/lab-notes.md has the fit's outside volume on a 262k-triangle mesh, direct and
 /// through the simplification).
 pub const MAX_FIT_TRIANGLES: usize = 65536;
 
@@ -766,8 +766,8 @@ fn fit_spheres_with_samples(
             continue;
         }
         // Stalled. Once the outside volume is a negligible share of the object's, teleports (two iterations each)
-        // buy nothing the shadows can show: 4096 spheres on a cube spent 12 teleports (83 s, and 414 s on a
-        // loaded machine) taking E from 0.034 % of the cube's volume to 0.013 % (docs/lab-notes.md, issue 48).
+        // buy nothing the shadows can show (4096 spheres on a cube: 12 teleports for E from 0.034 % of the
+        // cube's volume to 0.013 %; docs/lab-notes.md).
         if best_e < NEGLIGIBLE_OUTSIDE * samples.interior_volume {
             report(
                 iteration,
@@ -1113,7 +1113,7 @@ mod tests {
         }
     }
 
-    /// Issue 48, defect 5: a mesh above the fit's triangle budget is fitted through its simplification, and the
+    /// A mesh above the fit's triangle budget is fitted through its simplification, and the
     /// spheres still bound every vertex and triangle midpoint of the mesh itself, with an outside volume near the
     /// direct fit's. The test's budget (4000 triangles, so that it runs in seconds) makes a far coarser stand-in
     /// than the real one: 0.043 against 0.027 of the object's volume here; at full scale (262k triangles, the
@@ -1151,11 +1151,9 @@ mod tests {
         assert!(e_simplified < 1.25 * e_direct + 0.02, "{e_simplified} vs {e_direct}");
     }
 
-    /// Issue 48, defect 6: `spheres = 4096` on a small cube took 83 s, ten teleports each lowering an outside
-    /// volume already below 0.1 % of the cube's. A stalled fit whose outside volume is a negligible share of the
-    /// object's stops instead of teleporting (full scale: 4096 spheres, 12 s instead of 414 s on the same loaded
-    /// machine, E 0.13 % of the volume instead of 0.05 %; docs/lab-notes.md), and a fit above the threshold runs
-    /// as before.
+    /// A stalled fit whose outside volume is a negligible share of the object's (below 0.1 %) stops instead of
+    /// teleporting (figures at full scale, 4096 spheres on a cube, in docs/lab-notes.md), and a fit above the
+    /// threshold goes on teleporting.
     #[test]
     fn a_fit_stops_once_its_outside_volume_is_negligible() {
         let cube = crate::mesh::box_mesh(DVec3::splat(-1.0), DVec3::ONE);

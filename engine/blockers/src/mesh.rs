@@ -360,10 +360,9 @@ mod tests {
     use super::*;
     use engine_math::rng::Pcg32;
 
-    /// Issue 48, defect 5: the tree's set-up grows as O(n log n) with the triangle count n. Counted, not timed
-    /// (the machine is shared): the centroid reads of the median splits per triangle must stay within
-    /// c · log2(n) from 1k to 64k triangles: 3.8 → 4.1 reads per triangle per log2(n). The full sort per node it
-    /// replaced grows as log2²(n) per triangle: 9.7 → 15.1 (×1.56, which fails the bound).
+    /// The tree's set-up grows as O(n log n) with the triangle count n. Counted, not timed (the machine is
+    /// shared): the centroid reads of the median splits per triangle must stay within c · log2(n) from 1k to 64k
+    /// triangles (a full sort per node, which grows as log2²(n) per triangle, fails this bound).
     #[test]
     fn winding_tree_build_is_n_log_n() {
         let per_triangle = |segments: u32| {

@@ -204,7 +204,7 @@ void main() {
         // A cut past the cap is retried with sin θ_max doubled (at most SHEXP_CLUSTER_COARSEN times, up to 1):
         // coarser, but still the cluster's cut with ratio vectors, which agrees with the clusters around it.
         // The per-receiver cut of an overflowed cluster has no ratio vectors: its nodes taken whole (groups of
-        // characters' bounding spheres) darkened whole tiles of `crowd` (issue 44).
+        // characters' bounding spheres) would darken whole tiles of `crowd`.
         float sin_max = shx.sin_theta_max;
         for (uint attempt = 0u; !empty && shx.sphere_count > 0u; ++attempt) {
             count = 0u;

@@ -129,7 +129,7 @@ const NUMBERS: &[&str] = &[
     "0.0000001",
     "3.4e38",
     "1e-45",
-    // f32's limits and just beyond them (issue 48: every numeric key at the edge of what f32 holds).
+    // f32's limits and just beyond them: every numeric key at the edge of what f32 holds.
     "3.4028235e38",
     "-3.4028235e38",
     "3.4028236e38",
@@ -140,7 +140,7 @@ const NUMBERS: &[&str] = &[
     "340282350000000000000000000000000000000",
 ];
 
-/// Control bytes and escape sequences a crafted file could aim at the user's terminal (issue 48): inserted
+/// Control bytes and escape sequences a crafted file could aim at the user's terminal: inserted
 /// anywhere, so every text field (names, URIs, header lines, keys) gets them. No error may print them raw.
 const CONTROL: &[&[u8]] = &[
     b"\0",
@@ -411,7 +411,7 @@ pub fn check(outcome: &Outcome) -> Option<(&'static str, String)> {
 }
 
 /// Whether `text` holds a character that must not reach a terminal raw: a control character other than a line
-/// break, or a bidirectional override (issue 48: errors quoted raw bytes of the input).
+/// break, or a bidirectional override (an error must not quote raw bytes of the input).
 pub fn has_control(text: &str) -> bool {
     text.chars().any(|c| {
         (c.is_control() && c != '\n')

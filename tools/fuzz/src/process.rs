@@ -73,7 +73,7 @@ fn buffer_gltf(dir: &Path) -> std::io::Result<()> {
     std::fs::write(dir.join("b.gltf"), gltf_with_uri("input.bin"))
 }
 
-/// glTF files whose buffer is a valid one outside their folder (issue 48: `../../../../etc/passwd` was read):
+/// glTF files whose buffer is a valid one outside their folder (e.g. `../../../../etc/passwd`, which must not be read):
 /// by `..`, percent-encoded `..`, an absolute path and a `file:` URI (through `/proc/self/cwd`, the run's folder),
 /// and a link in the folder to it. Each must be refused; read, it would load.
 fn outside_seeds() -> Vec<Vec<u8>> {

@@ -156,7 +156,7 @@ pub fn scene() -> Vec<Vec<u8>> {
     out
 }
 
-/// A scene file with every numeric key (issue 48: mutations put f32's limits in each), its paths relative to
+/// A scene file with every numeric key (the mutations put f32's limits in each), its paths relative to
 /// the examples folder.
 const ALL_KEYS: &str = r#"[camera]
 eye = [0.0, 1.6, 3.6]

@@ -262,14 +262,7 @@ pub struct Merged {
 /// (per scene: the techniques' rows then the references', the references' images first, …), copying the points'
 /// images into `out/img` for a sweep without a site. Missing points are listed, not an error here.
 pub fn merge(sweep: &Sweep, dirs: &[PathBuf], out: &Path) -> Result<Merged> {
-    let mut results = Results {
-        images: Vec::new(),
-        rows: Vec::new(),
-        references: Vec::new(),
-        thumbnails: Vec::new(),
-        regions: Vec::new(),
-        linearity: Vec::new(),
-    };
+    let mut results = Results::default();
     let (mut missing, mut devices) = (Vec::new(), Vec::<String>::new());
     let all = points(sweep);
     for (scene, spec) in sweep.scenes.iter().enumerate() {

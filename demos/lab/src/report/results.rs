@@ -139,7 +139,7 @@ pub struct SceneImages {
 }
 
 /// Everything a sweep measured (one point of a sweep run as jobs keeps its part in this form: `super::jobs`).
-#[derive(Serialize, Deserialize)]
+#[derive(Default, Serialize, Deserialize)]
 pub struct Results {
     /// Every scene's images (for the results page), in sweep order.
     pub images: Vec<SceneImages>,

@@ -129,14 +129,7 @@ pub fn measure_part(gpu: &Gpu, sweep: &Sweep, out: &Path, part: &Part) -> Result
             ..Default::default()
         })
     };
-    let mut results = Results {
-        images: Vec::new(),
-        rows: Vec::new(),
-        references: Vec::new(),
-        thumbnails: Vec::new(),
-        regions: Vec::new(),
-        linearity: Vec::new(),
-    };
+    let mut results = Results::default();
     for (scene_index, spec) in sweep.scenes.iter().enumerate() {
         if !part.has_scene(scene_index) {
             continue;
