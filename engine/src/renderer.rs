@@ -391,6 +391,11 @@ impl Renderer {
         self.technique.report(gpu)
     }
 
+    /// The technique's blocker-tile counts ([`Technique::tile_counts`]), if it traverses the blocker BVH.
+    pub fn tile_counts(&mut self, gpu: &Gpu) -> Result<Option<crate::passes::shade::tiles::TileCounts>> {
+        self.technique.tile_counts(gpu)
+    }
+
     /// Render one frame and wait for it; returns per-pass GPU times.
     pub fn render(&mut self, gpu: &Gpu) -> Result<Vec<PassTiming>> {
         self.render_to(gpu, None)

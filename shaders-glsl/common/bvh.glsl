@@ -38,14 +38,53 @@ struct BvhCursor {
     uint size;
     // Set when a push did not fit (the node was then handed back to the caller to take whole).
     bool overflowed;
+    // Start nodes still to visit, [next, end) of the shader's start list (BVH_TILE_NODE): each is visited,
+    // with its subtree, when the stack runs empty. Empty when the traversal starts at the root.
+    uint next;
+    uint end;
 };
 
+// Tile start lists (shaders-glsl/blocker_tiles/cull.comp): a shader that defines BVH_TILE_NODE(i) (the i-th
+// entry of its start-list buffer) and declares `uvec2 bvh_tile_range()` (this invocation's [first, end) in
+// it) starts every traversal from its tile's list instead of the root. The list is a cut of the BVH in
+// depth-first, left-first order holding every node that any receiver of the tile could reach, so the
+// traversal visits the same nodes in the same order as from the root, minus the upper levels and the
+// subtrees no receiver of the tile sees (see cull.comp for why that is exact).
+#ifdef BVH_TILE_NODE
+uvec2 bvh_tile_range();
+#endif
+
+// BVH_COUNT_VISITS: bvh_visits counts the nodes this invocation popped, over all its traversals (the
+// "blockers tested per pixel" counter; the pixel target writes it out).
+#ifdef BVH_COUNT_VISITS
+uint bvh_visits = 0u;
+#define BVH_VISITED() (bvh_visits += 1u)
+#else
+#define BVH_VISITED() 0u
+#endif
+
 // A cursor at the root, or an empty one when there are no spheres.
-BvhCursor bvh_cursor_begin(uint sphere_count) {
+BvhCursor bvh_cursor_begin_root(uint sphere_count) {
     BvhCursor c;
     c.size = sphere_count > 0u ? 1u : 0u;
     c.stack[0] = 0u;
     c.overflowed = false;
+    c.next = 0u;
+    c.end = 0u;
+    return c;
+}
+
+// A cursor at the invocation's tile list (BVH_TILE_NODE) or else at the root; empty when there are no spheres.
+BvhCursor bvh_cursor_begin(uint sphere_count) {
+    BvhCursor c = bvh_cursor_begin_root(sphere_count);
+#ifdef BVH_TILE_NODE
+    if (sphere_count > 0u) {
+        uvec2 r = bvh_tile_range();
+        c.size = 0u;
+        c.next = r.x;
+        c.end = r.y;
+    }
+#endif
     return c;
 }
 
@@ -53,10 +92,16 @@ BvhCursor bvh_cursor_begin(uint sphere_count) {
 // function takes an `inout` argument by copy (in and out), and llvmpipe copied the whole stack at every
 // step (the `isg` shade pass on the bunny lost about 10-15 % to it; README, "Speed").
 
-// bool bvh_cursor_next(BvhCursor c, out uint node): pops the next node to visit into `node`; false
-// (and `node` untouched) when the traversal is finished.
+// bool bvh_cursor_next(BvhCursor c, out uint node): pops the next node to visit into `node` (the stack's top,
+// else the next start node); false (and `node` untouched) when the traversal is finished.
+#ifdef BVH_TILE_NODE
 #define bvh_cursor_next(c, node) \
-    ((c).size == 0u ? false : ((c).size -= 1u, (node) = (c).stack[(c).size], true))
+    ((c).size == 0u ? ((c).next >= (c).end ? false : ((node) = BVH_TILE_NODE((c).next), (c).next += 1u, BVH_VISITED(), true)) \
+                    : ((c).size -= 1u, (node) = (c).stack[(c).size], BVH_VISITED(), true))
+#else
+#define bvh_cursor_next(c, node) \
+    ((c).size == 0u ? false : ((c).size -= 1u, (node) = (c).stack[(c).size], BVH_VISITED(), true))
+#endif
 
 // bool bvh_cursor_push_children(BvhCursor c, uint left, uint right): pushes both children (the left
 // one is visited first). Returns false, pushes nothing and sets c.overflowed when there is no room for

@@ -19,6 +19,16 @@ ivec2 target_pixel() {
     return ivec2(gl_WorkGroupID.xy * 8u + m);
 }
 
+#ifdef BVH_TILE_NODE
+// This pixel's tile list in TileNodes (shade/tiles.glsl): [first, end).
+uvec2 bvh_tile_range() {
+    uvec2 t = uvec2(target_pixel()) / BVH_TILE_SIDE;
+    uint tiles_x = (frame.size.x + BVH_TILE_SIDE - 1u) / BVH_TILE_SIDE;
+    uint base = 1u + (t.y * tiles_x + t.x) * tile_nodes[0];
+    return uvec2(base + 1u, base + 1u + tile_nodes[base]);
+}
+#endif
+
 void main() {
     ivec2 px = target_pixel();
     if (any(greaterThanEqual(uvec2(px), frame.size.xy))) return;
@@ -38,4 +48,7 @@ void main() {
     // No NaN or inf may reach an image.
     if (any(isnan(result)) || any(isinf(result))) result = vec3(0.0);
     imageStore(radiance, px, vec4(result, 1.0));
+#ifdef BVH_COUNT_VISITS
+    node_visits[uint(px.y) * frame.size.x + uint(px.x)] = p.w < 0.5 ? 0xffffffffu : bvh_visits;
+#endif
 }

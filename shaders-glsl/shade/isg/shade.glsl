@@ -15,6 +15,7 @@
 #include "../../common/sg.glsl"
 #define BVH_STACK_SIZE 32
 #define ISG_MAX_BLOCKERS 32
+#include "../tiles.glsl"
 #include "../../common/bvh.glsl"
 
 layout(binding = 8) uniform sampler2D prefiltered_env;

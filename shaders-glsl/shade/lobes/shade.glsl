@@ -42,6 +42,7 @@
 #include "../../common/lobes.glsl"
 #include "../../common/frame.glsl"
 #define BVH_STACK_SIZE 32
+#include "../tiles.glsl"
 #include "../../common/bvh.glsl"
 // The cost split of option `phase` (the paper's Table 1; a timing variant, not an image): every receiver
 // stops after phase 1 lobes (reflectance and light lobes, R × L, U and the unshadowed terms), 2 gather (+ the
@@ -362,6 +363,9 @@ bool lobes_node_is_small(vec3 p, vec3 axis, vec4 s, float cells, float corner) {
     return 2.0 * beta < cells * cos(far);
 }
 
+// Whether lobes_collect traverses from the root rather than from the tile list (a coarsened retry).
+bool g_from_root = false;
+
 // The cut of the blocker BVH for the mask cone (apex p, axis, half-angle `corner`): nodes missing the
 // cone are dropped, leaves and nodes that lobes_node_is_small(cells) are visited (as one blocker
 // each), other nodes opened. cells = 0: leaves only. Sets g_overflow when a blocker was dropped.
@@ -371,7 +375,8 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float corner, float cells) {
     g_blocker_count = 0u;
     g_overflow = false;
     g_dropped = 0.0;
-    BvhCursor c = bvh_cursor_begin(lp.sphere_count);
+    // A coarsened retry takes nodes whole that the tile list (tiles.glsl) may have opened: from the root.
+    BvhCursor c = g_from_root ? bvh_cursor_begin_root(lp.sphere_count) : bvh_cursor_begin(lp.sphere_count);
     uint v;
     while (bvh_cursor_next(c, v)) {
         BvhNode node = bvh_nodes[v];
@@ -398,10 +403,12 @@ void lobes_gather(vec3 p, vec3 n, vec3 axis, float tan_half, uint depth) {
     g_count_widths = false;
     float first = cells;
     for (uint i = 0u;; ++i) {
+        g_from_root = i > 0u;
         lobes_collect(p, n, axis, corner, cells);
         if (!g_overflow || !(cells > 0.0) || i >= lp.coarsen) break;
         cells *= 2.0;
     }
+    g_from_root = false;
     if (!g_overflow) return;
     // Still too many: the first cut again, keeping its widest caps (the nearest blockers, whose shadow matters
     // most): the widest width bins that fit together, then the next bin's caps in traversal order while there is

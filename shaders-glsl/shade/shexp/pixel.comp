@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#define SHADE_PIXEL
 #define SHEXP_PIXEL
 #include "shade.glsl"
 #include "../target_pixel.glsl"

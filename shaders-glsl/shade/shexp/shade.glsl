@@ -29,6 +29,7 @@
 #include "../lights.glsl"
 layout(binding = 8) uniform sampler2D prefiltered_env;
 layout(binding = 9) uniform sampler2D irradiance_map;
+#include "../tiles.glsl"
 #include "bindings.glsl"
 #include "../../common/planes.glsl"
 layout(std430, binding = 21) readonly buffer BlockerPlanes {

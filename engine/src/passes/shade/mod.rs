@@ -13,6 +13,7 @@ pub mod lobes;
 pub mod none;
 pub mod reference;
 pub mod shexp;
+pub mod tiles;
 
 use crate::gpu::{Binding, Buffer, ComputePipeline, Gpu, GpuError, Image, Recorder, Result};
 use crate::options::{self, OptionError, OptionSpec, Options};
@@ -264,6 +265,11 @@ pub trait Technique: Send {
     /// receiver), as lines for the user. Default: the warnings, no counts.
     fn report(&mut self, gpu: &Gpu) -> Result<TechniqueReport> {
         Ok(TechniqueReport { warnings: self.warnings(gpu)?, counts: Vec::new() })
+    }
+    /// The blocker tiles' counts ([`tiles::TileCounts`]: list lengths since the last call, BVH nodes tested per
+    /// pixel in the last frame) of a technique that traverses the blocker BVH per pixel. Default: none.
+    fn tile_counts(&mut self, _gpu: &Gpu) -> Result<Option<tiles::TileCounts>> {
+        Ok(None)
     }
     /// Technique-specific controls (e.g. the reference's sample counts), reached by downcasting.
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {

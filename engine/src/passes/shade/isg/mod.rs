@@ -27,6 +27,7 @@
 //! shaders-glsl/common/isg_thin.glsl, f64 twin [`thin`]), OR-ed with the spheres' patches.
 //! Not modelled: anisotropic BRDF lobes. [`cpu`] is the f64 twin of the whole per-point integral.
 
+use super::tiles::{sin_take_whole, BlockerTiles};
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::tables::MathTables;
@@ -108,12 +109,15 @@ pub struct Isg {
     thin_pipelines: Option<TargetPipelines>,
     pub options: IsgOptions,
     prepared: Option<Prepared>,
+    /// The blocker tiles of the per-pixel target (`tiles`).
+    tiles: BlockerTiles,
 }
 
 impl Isg {
     pub fn new(gpu: &Gpu, options: IsgOptions) -> Result<Self> {
-        let pipelines = TargetPipelines::with_defines(gpu, "isg", &counter_defines(&options))?;
-        Ok(Self { pipelines, thin_pipelines: None, options, prepared: None })
+        let pipelines = TargetPipelines::with_defines(gpu, "isg", &shader_defines(&options))?;
+        let tiles = BlockerTiles::new(options.tiles);
+        Ok(Self { pipelines, thin_pipelines: None, options, prepared: None, tiles })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -134,7 +138,7 @@ impl Technique for Isg {
         self.release(gpu);
         let thin_count = inputs.thin()?.triangle_count;
         if thin_count > 0 && self.thin_pipelines.is_none() {
-            let mut defines = counter_defines(&self.options);
+            let mut defines = shader_defines(&self.options);
             defines.push(("ISG_THIN_SHELLS", "1"));
             self.thin_pipelines = Some(TargetPipelines::with_defines(gpu, "isg", &defines)?);
         }
@@ -199,12 +203,17 @@ impl Technique for Isg {
             _ => &self.pipelines,
         };
         let env = inputs.environment;
+        let o = &self.options;
+        let tiles = self.tiles.record(rec, "isg", inputs.blockers()?, &target, sin_take_whole(take_whole_bound(o)))?;
+        let [visits, lists] = tiles.bindings()?;
         pipelines.record(
             rec,
             "isg",
             inputs,
             target,
             &[
+                visits,
+                lists,
                 Binding::sampled("prefiltered_env", &env.prefiltered),
                 Binding::sampled("irradiance_map", &env.irradiance),
                 Binding::buffer("EnvSgs", &p.env_sgs),
@@ -219,8 +228,13 @@ impl Technique for Isg {
         )
     }
 
+    fn tile_counts(&mut self, gpu: &Gpu) -> Result<Option<super::tiles::TileCounts>> {
+        self.tiles.counts(gpu).map(Some)
+    }
+
     fn destroy(mut self: Box<Self>, gpu: &Gpu) {
         self.release(gpu);
+        std::mem::replace(&mut self.tiles, BlockerTiles::new(Default::default())).destroy(gpu);
         self.pipelines.destroy(gpu);
         if let Some(t) = self.thin_pipelines.take() {
             t.destroy(gpu);
@@ -245,13 +259,24 @@ pub fn gather_take_whole(lobes: &[SgRgb], o: &IsgOptions) -> f64 {
     o.node_threshold * 2.0 * cpu::limiting_angle(sharpest, o.epsilon) / o.side.clamp(1, 32) as f64
 }
 
-/// The counter variant's define (option `counters`, the cost model), none for the radiance shader.
-fn counter_defines(o: &IsgOptions) -> Vec<(&'static str, &'static str)> {
-    match o.counters {
+/// The shaders' defines: the counter variant's (option `counters`, the cost model; none for the radiance
+/// shader) and the blocker tiles' (option `tiles`).
+fn shader_defines(o: &IsgOptions) -> Vec<(&'static str, &'static str)> {
+    let mut d = match o.counters {
         1 => vec![("ISG_COUNTERS", "1")],
         2 => vec![("ISG_COUNTERS", "2")],
         _ => Vec::new(),
-    }
+    };
+    d.extend(o.tiles.defines());
+    d
+}
+
+/// The largest half-angle below which any traversal of the shader takes a BVH node whole (the tile lists stop
+/// above such nodes): `threshold` patch widths of the widest grid. The hemisphere grid's and a lobe's patches are
+/// at most π/P wide (Γ ≤ π/2), a small light's own grid's 2α/8 < π/16 (α < π/4); the shared gather's threshold
+/// ([`gather_take_whole`]) is one of those widths.
+pub fn take_whole_bound(o: &IsgOptions) -> f64 {
+    o.node_threshold * std::f64::consts::PI / o.side.clamp(1, 16) as f64
 }
 
 /// The shader's diffuse mode code (`IsgParams::diffuse_mode`).

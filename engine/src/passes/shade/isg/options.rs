@@ -43,6 +43,8 @@ pub struct IsgOptions {
     /// The counter variant of the shader (the cost model): 0 radiance, 1 and 2 the work counts
     /// (shaders-glsl/common/isg_visibility.glsl) instead of radiance.
     pub counters: u32,
+    /// The blocker tiles (`tiles`, `tile_cap`).
+    pub tiles: crate::passes::shade::tiles::TileOptions,
 }
 
 impl Default for IsgOptions {
@@ -56,6 +58,7 @@ impl Default for IsgOptions {
             diffuse: Diffuse::Map,
             refine: REFINE_ROUNDS,
             counters: 0,
+            tiles: Default::default(),
         }
     }
 }
@@ -122,6 +125,8 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "cost model: show per-point work counts instead of radiance: traversal (BVH nodes of the hemisphere traversal, of the lobe traversals, caps marked) or marking (cap rows, map patch lookups, Ŝ corners)",
     },
     crate::passes::shade::env_lights_option("off"),
+    crate::passes::shade::tiles::TILES_OPTION,
+    crate::passes::shade::tiles::TILE_CAP_OPTION,
 ];
 
 impl IsgOptions {
@@ -147,6 +152,7 @@ impl IsgOptions {
                 "marking" => 2,
                 _ => 0,
             },
+            tiles: crate::passes::shade::tiles::TileOptions::from_options(o),
         }
     }
 

@@ -25,6 +25,7 @@
 //! receivers that reach it are counted), four reflectance lobes (Lambert and up to three Lafortune lobes).
 //! [`cpu`] is the f64 twin of the per-receiver computation.
 
+use super::tiles::{sin_take_whole, BlockerTiles};
 use super::{Reads, ShadeInputs, ShadeTarget, TargetPipelines, Technique, TechniqueEntry, Tolerances};
 use crate::gpu::{Binding, Buffer, BufferDesc, Gpu, GpuError, Recorder, Result};
 use crate::options::{Kind, OptionSpec, Options};
@@ -176,6 +177,8 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "receiver rule of the lights' masks for a sphere straddling the tangent plane: plain (SHEXP §6.2, as the sphere reference), alpha (with its radius scale α, as the environment's mask) or auto (alpha in a scene with thin shells, whose stand-in spheres straddle every receiver on the sheet; plain otherwise)",
     },
     super::env_lights_option("on"),
+    super::tiles::TILES_OPTION,
+    super::tiles::TILE_CAP_OPTION,
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `LOBES_PHASE` k in shade.glsl.
@@ -247,6 +250,8 @@ pub struct LobesOptions {
     /// Factor of the light masks' leaf weights by the leaf's depth (index 0..=6; `weights=fitted`: the
     /// fitted table `assets/tables/lobes_weights.json`, else all 1).
     pub light_weights: [f64; WEIGHT_DEPTHS],
+    /// The blocker tiles (`tiles`, `tile_cap`).
+    pub tiles: super::tiles::TileOptions,
 }
 
 /// Depths of the per-depth light weights (0..=[`MAX_DEPTH`]).
@@ -272,6 +277,7 @@ impl Default for LobesOptions {
             phase: PHASES.len() as u32,
             light_weights: [1.0; WEIGHT_DEPTHS],
             light_rule: LightRule::Auto,
+            tiles: Default::default(),
         }
     }
 }
@@ -309,6 +315,7 @@ impl LobesOptions {
                 "alpha" => LightRule::Alpha,
                 _ => LightRule::Auto,
             },
+            tiles: super::tiles::TileOptions::from_options(o),
         })
     }
 }
@@ -530,6 +537,14 @@ pub struct EnvFit {
     pub error: f64,
 }
 
+/// The largest half-angle below which a first cut of a mask takes a BVH node whole (the tile lists stop above
+/// such nodes): lobes_node_is_small's 2β < cells cos(·) gives β < cells/2 = take_whole tan(h)/2^depth with the
+/// widest mask (h = LOBES_MASK_MAX_HALF_ANGLE, 1.4) at the coarsest maximal depth (the lights', `depth`). A
+/// coarsened retry takes wider nodes whole: it traverses from the root (shade.glsl `g_from_root`).
+pub fn take_whole_bound(o: &LobesOptions) -> f64 {
+    o.take_whole * 1.4f64.tan() / f64::from(1u32 << o.depth.min(MAX_DEPTH))
+}
+
 pub struct Lobes {
     pipelines: TargetPipelines,
     pub options: LobesOptions,
@@ -539,6 +554,8 @@ pub struct Lobes {
     pub env_fit: Option<EnvFit>,
     /// The fit's line is reported once per fit.
     env_fit_reported: bool,
+    /// The blocker tiles of the per-pixel target (`tiles`).
+    tiles: BlockerTiles,
 }
 
 impl Lobes {
@@ -552,12 +569,14 @@ impl Lobes {
         if options.env_lobes > 0 {
             defines.push(("LOBES_ENV_K", env_k.as_str()));
         }
+        defines.extend(options.tiles.defines());
         let pipelines = if defines.is_empty() {
             TargetPipelines::new(gpu, "lobes")?
         } else {
             TargetPipelines::with_defines(gpu, "lobes", &defines)?
         };
-        Ok(Self { pipelines, options, prepared: None, stats: None, env_fit: None, env_fit_reported: false })
+        let tiles = BlockerTiles::new(options.tiles);
+        Ok(Self { pipelines, options, prepared: None, stats: None, env_fit: None, env_fit_reported: false, tiles })
     }
 
     fn release(&mut self, gpu: &Gpu) {
@@ -691,12 +710,16 @@ impl Technique for Lobes {
         };
         let env = inputs.environment;
         let blockers = inputs.blockers()?;
+        let tiles = self.tiles.record(rec, "lobes", blockers, &target, sin_take_whole(take_whole_bound(&self.options)))?;
+        let [visits, lists] = tiles.bindings()?;
         self.pipelines.record(
             rec,
             "lobes",
             inputs,
             target,
             &[
+                visits,
+                lists,
                 Binding::sampled("irradiance_map", &env.irradiance),
                 Binding::sampled("prefiltered_env", &env.prefiltered),
                 Binding::buffer("LobeProduct", table(MathTable::LobeProduct)?),
@@ -712,8 +735,13 @@ impl Technique for Lobes {
         )
     }
 
+    fn tile_counts(&mut self, gpu: &Gpu) -> Result<Option<super::tiles::TileCounts>> {
+        self.tiles.counts(gpu).map(Some)
+    }
+
     fn destroy(mut self: Box<Self>, gpu: &Gpu) {
         self.release(gpu);
+        std::mem::replace(&mut self.tiles, BlockerTiles::new(Default::default())).destroy(gpu);
         if let Some(b) = self.stats.take() {
             gpu.destroy_buffer(b);
         }

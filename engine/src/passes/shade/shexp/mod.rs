@@ -159,6 +159,8 @@ pub const OPTIONS: &[OptionSpec] = &[
         help: "cost split (a timing variant, its image is not the technique's): every receiver stops after visit (the cut list walked, the §6.2 rules and each blocker's angle), logs (+ the circle logs summed), exp (+ the exponential and the planes) or all (+ the shading and the lights)",
     },
     super::env_lights_option("on"),
+    super::tiles::TILES_OPTION,
+    super::tiles::TILE_CAP_OPTION,
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `SHEXP_PHASE` k in shade.glsl.
@@ -227,6 +229,8 @@ pub struct ShexpOptions {
     /// The cost split (option `phase`, a timing variant): 1 visit the blockers, 2 + their logs, 3 + the
     /// exponential, 4 everything (`SHEXP_PHASE` in shade.glsl).
     pub phase: u32,
+    /// The blocker tiles (`tiles`, `tile_cap`): the start lists of the per-receiver cuts per pixel.
+    pub tiles: super::tiles::TileOptions,
 }
 
 impl Default for ShexpOptions {
@@ -249,6 +253,7 @@ impl Default for ShexpOptions {
             bake: false,
             world_pixel_clusters: false,
             phase: 4,
+            tiles: Default::default(),
         }
     }
 }
@@ -294,6 +299,7 @@ impl ShexpOptions {
             bake: o.choice("bake") == "on",
             world_pixel_clusters: o.choice("pixel_clusters") == "world",
             phase: PHASES.iter().position(|p| *p == o.choice("phase")).map_or(4, |k| k as u32 + 1),
+            tiles: super::tiles::TileOptions::from_options(o),
         }
     }
 
@@ -524,6 +530,8 @@ pub struct Shexp {
     partition: Option<((u32, usize), SceneClusters)>,
     pub options: ShexpOptions,
     prepared: Option<Prepared>,
+    /// The blocker tiles of the per-pixel target (`tiles`): the start lists of the per-receiver cuts.
+    tiles: super::tiles::BlockerTiles,
 }
 
 /// The three tables of order `n`.
@@ -589,7 +597,9 @@ impl Shexp {
     pub fn new(gpu: &Gpu, options: ShexpOptions) -> Result<Self> {
         let (n, phase) = (options.order.to_string(), options.phase.to_string());
         let defines = [("SHEXP_N", n.as_str()), ("SHEXP_PHASE", phase.as_str())];
-        let pipelines = TargetPipelines::with_defines(gpu, "shexp", &defines)?;
+        let mut shade_defines = defines.to_vec();
+        shade_defines.extend(options.tiles.defines());
+        let pipelines = TargetPipelines::with_defines(gpu, "shexp", &shade_defines)?;
         if options.cluster_side() > 0 {
             for target in ["pixel", "vertex"] {
                 gpu.compile_compute_shader(&format!("shade/shexp/clusters_{target}.comp"), &defines)?;
@@ -605,6 +615,7 @@ impl Shexp {
             bake_frames: std::cell::Cell::new(0),
             baked: std::cell::RefCell::new(Vec::new()),
             partition: None,
+            tiles: super::tiles::BlockerTiles::new(options.tiles),
             options,
             prepared: None,
         })
@@ -899,12 +910,18 @@ impl Technique for Shexp {
         self.ensure_baked(rec.gpu(), self.bake_records(&target))?;
         let baked = self.baked.borrow();
         let baked = &baked.last().ok_or_else(|| GpuError::Other("internal: shexp bake records missing".into()))?.1;
+        // The per-receiver cut takes a node whole below θ_max (SHEXP Eq. 36).
+        let sin_t = super::tiles::sin_take_whole(self.options.theta_max_deg.to_radians());
+        let tiles = self.tiles.record(rec, "shexp", blockers, &target, sin_t)?;
+        let [visits, lists] = tiles.bindings()?;
         self.pipelines.record(
             rec,
             "shexp",
             inputs,
             target,
             &[
+                visits,
+                lists,
                 Binding::buffer("ShexpBaked", baked),
                 Binding::buffer("ClusterHeads", &cb.heads),
                 Binding::buffer("ClusterCut", &cb.cut),
@@ -924,8 +941,13 @@ impl Technique for Shexp {
         )
     }
 
+    fn tile_counts(&mut self, gpu: &Gpu) -> Result<Option<super::tiles::TileCounts>> {
+        self.tiles.counts(gpu).map(Some)
+    }
+
     fn destroy(mut self: Box<Self>, gpu: &Gpu) {
         self.release(gpu);
+        std::mem::replace(&mut self.tiles, super::tiles::BlockerTiles::new(Default::default())).destroy(gpu);
         for b in self.clusters.take() {
             gpu.destroy_buffer(b.heads);
             gpu.destroy_buffer(b.cut);
