@@ -115,6 +115,8 @@ pub struct Row {
     pub device_bytes: u64,
     /// Device allocations made during the timed frames (a steady frame makes none).
     pub steady_allocations: u64,
+    /// The blocker tiles' counters over the timed frames (a technique that traverses the blocker BVH).
+    pub tiles: Option<engine::passes::shade::tiles::TileCounts>,
 }
 
 impl Row {
@@ -257,9 +259,11 @@ fn measure(
 ) -> Result<Row> {
     // Warm-up: pipelines are compiled lazily by some drivers (lavapipe JIT-compiles on first dispatch).
     Capture::record_from(gpu, renderer, 0, plan.warmup, animation)?;
+    renderer.tile_counts(gpu)?; // the counters restart
     let before = gpu.memory_stats();
     let capture = Capture::record_from(gpu, renderer, plan.warmup, plan.frames, animation)?;
     let after = gpu.memory_stats();
+    let tiles = renderer.tile_counts(gpu)?;
     Ok(Row {
         scene: scene.to_string(),
         technique: technique.to_string(),
@@ -269,6 +273,7 @@ fn measure(
         capture,
         device_bytes: after.allocated_bytes,
         steady_allocations: after.allocations_made - before.allocations_made,
+        tiles,
     })
 }
 
@@ -293,6 +298,20 @@ pub struct CsvLine {
     pub fps: f64,
     pub device_mib: f64,
     pub steady_allocations: u64,
+    /// BVH nodes tested per shaded pixel in the last timed frame, mean and p99 (techniques that traverse the
+    /// blocker BVH per pixel; empty otherwise).
+    #[serde(default)]
+    pub nodes_per_pixel_mean: Option<f64>,
+    #[serde(default)]
+    pub nodes_per_pixel_p99: Option<f64>,
+    /// The blocker tiles' start lists over the timed frames: mean and longest length, tiles that fell back to
+    /// the root (`tiles=on`; empty otherwise).
+    #[serde(default)]
+    pub tile_list_mean: Option<f64>,
+    #[serde(default)]
+    pub tile_list_max: Option<u64>,
+    #[serde(default)]
+    pub tiles_fell_back: Option<u64>,
 }
 
 impl CsvLine {
@@ -304,6 +323,8 @@ impl CsvLine {
 pub fn csv_lines(machine: &Machine, rows: &[Row]) -> Vec<CsvLine> {
     let mut out = Vec::new();
     for r in rows {
+        let pixel = r.tiles.as_ref().filter(|t| t.pixels > 0);
+        let lists = r.tiles.as_ref().filter(|t| t.frames > 0);
         for s in r.summary() {
             out.push(CsvLine {
                 adapter: machine.adapter.clone(),
@@ -323,6 +344,11 @@ pub fn csv_lines(machine: &Machine, rows: &[Row]) -> Vec<CsvLine> {
                 fps: r.fps(),
                 device_mib: r.device_bytes as f64 / (1024.0 * 1024.0),
                 steady_allocations: r.steady_allocations,
+                nodes_per_pixel_mean: pixel.map(|t| t.pixel_mean),
+                nodes_per_pixel_p99: pixel.map(|t| t.pixel_p99),
+                tile_list_mean: lists.map(|t| t.list_mean),
+                tile_list_max: lists.map(|t| t.list_max),
+                tiles_fell_back: lists.map(|t| t.fell_back),
             });
         }
     }
@@ -568,6 +594,7 @@ mod tests {
             },
             device_bytes: 3 * 1024 * 1024,
             steady_allocations: 0,
+            tiles: None,
         }
     }
 

@@ -235,10 +235,15 @@ pub fn run(
     animation: Option<&scenes::Animation>,
 ) -> Result<()> {
     eprintln!("capturing {frames} frames...");
+    renderer.tile_counts(gpu)?; // the blocker tiles' counters restart
     let c = Capture::record(gpu, renderer, frames.max(1), animation)?;
     let paths = c.write(&out.join("capture"), name, info)?;
     println!("per-pass GPU time on {} over {} frames ({}x{}):", info.device, c.frames.len(), info.width, info.height);
     print!("{}", c.summary_table());
+    // What the technique's BVH traversals tested (engine::passes::shade::tiles), for techniques that have them.
+    if let Some(t) = renderer.tile_counts(gpu)? {
+        println!("{}", t.line());
+    }
     println!("wrote {}, {} and {}", paths[0].display(), paths[1].display(), paths[2].display());
     Ok(())
 }

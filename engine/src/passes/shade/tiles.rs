@@ -171,7 +171,8 @@ impl BlockerTiles {
         Ok(())
     }
 
-    /// Record the cull pass for a per-pixel `target` (with `tiles=on` and blockers), named `tiles/<technique>`,
+    /// Record the cull pass for a per-pixel `target` (with `tiles=on` and blockers), timed as `shade/<technique> tiles`
+    /// (part of the technique's shade time),
     /// and return the bindings the technique's shade pass reads (`NodeVisits`, `TileNodes`; always given, so that
     /// every variant finds them). `sin_take_whole`: sin of the largest half-angle below which the technique's
     /// traversals may take a node whole (1 when that is π/2 or more).
@@ -202,7 +203,7 @@ impl BlockerTiles {
                 let pipeline = self.cull_pipeline(gpu)?;
                 let lists = self.lists.borrow();
                 let list = lists.last().ok_or_else(|| GpuError::Other("internal: tile lists missing".into()))?;
-                rec.begin_pass(&format!("tiles/{technique}"));
+                rec.begin_pass(&format!("shade/{technique} tiles"));
                 // The record stride, read by every pixel (tiles.glsl): written before the pass.
                 rec.fill_buffer(list, stride as u32);
                 rec.barrier();
