@@ -20,7 +20,9 @@
 // Receivers enter through bounds: the bounding sphere (c_t, r_t) of the tile's positions and the cone
 // (axis a, half-angle β) of its shading normals. For a node (c, R), d = c − c_t:
 //   max over the tile of (c − p)·n ≤ |d| cos(max(∠(d, a) − β, 0)) + r_t   (cull when that is ≤ −R),
-//   max over the tile of |c − p|  ≤ |d| + r_t                               (open when R ≥ sin T of that).
+//   max over the tile of |c − p|  ≤ |d| + r_t                               (open when R ≥ sin T of that),
+//   min over the tile of |c − p|  ≥ |d| − r_t          (tile_lod: listed whole when R < sin θ_lod of that).
+// The level of detail is the one approximation here (option tile_lod, off by default): it changes the image.
 layout(local_size_x = 16, local_size_y = 16) in;
 #include "../common/bvh.glsl"
 
@@ -39,9 +41,12 @@ layout(push_constant) uniform TilePush {
     uint stride;           // S: capacity + 1
     uint width;
     uint height;
+    float sin_lod;         // sin θ_lod of option tile_lod (0: off)
 } pc;
 
 const uint TILE = 16u;
+// A list entry's "take whole" mark (BVH_TILE_WHOLE in common/bvh.glsl).
+const uint BVH_TILE_WHOLE_BIT = 0x80000000u;
 const uint TILE_PIXELS = TILE * TILE;
 const float TILE_PI = 3.14159265358979;
 
@@ -119,6 +124,17 @@ void main() {
         float ang = dl > 0.0 ? acos(clamp(dot(d, axis) / dl, -1.0, 1.0)) : 0.0;
         float reach = dl * cos(min(max(ang - beta, 0.0), TILE_PI)) + rt;
         if (reach + r < -1e-4 * (dl + rt + r)) continue;
+        // Level of detail (tile_lod > 0, an approximation): a node subtending less than θ_lod from every receiver
+        // of the tile is listed marked whole, and every pixel takes it as one blocker.
+        if (!bvh_is_leaf(nd) && dl > rt && r < pc.sin_lod * (dl - rt)) {
+            if (count >= capacity) {
+                full = true;
+                break;
+            }
+            tile_nodes[base + 1u + count] = v | BVH_TILE_WHOLE_BIT;
+            count += 1u;
+            continue;
+        }
         // Open: no receiver could take it whole (it subtends at least T from every one).
         bool open = !bvh_is_leaf(nd) && r >= pc.sin_take_whole * (dl + rt) * (1.0 + 1e-3) && size + 2u <= 64u;
         if (open) {

@@ -42,6 +42,8 @@ struct BvhCursor {
     // with its subtree, when the stack runs empty. Empty when the traversal starts at the root.
     uint next;
     uint end;
+    // The node last popped came from the list marked "take whole" (the tile's level of detail, cull.comp).
+    bool whole;
 };
 
 // Tile start lists (shaders-glsl/blocker_tiles/cull.comp): a shader that defines BVH_TILE_NODE(i) (the i-th
@@ -71,6 +73,7 @@ BvhCursor bvh_cursor_begin_root(uint sphere_count) {
     c.overflowed = false;
     c.next = 0u;
     c.end = 0u;
+    c.whole = false;
     return c;
 }
 
@@ -94,10 +97,17 @@ BvhCursor bvh_cursor_begin(uint sphere_count) {
 
 // bool bvh_cursor_next(BvhCursor c, out uint node): pops the next node to visit into `node` (the stack's top,
 // else the next start node); false (and `node` untouched) when the traversal is finished.
+// A list entry's bit 31 marks a node the tile takes whole (BVH_TILE_WHOLE): bvh_cursor_whole(c) then holds until
+// the next pop, and the traversal must visit the node as if it were a leaf.
 #ifdef BVH_TILE_NODE
+const uint BVH_TILE_WHOLE = 0x80000000u;
 #define bvh_cursor_next(c, node) \
-    ((c).size == 0u ? ((c).next >= (c).end ? false : ((node) = BVH_TILE_NODE((c).next), (c).next += 1u, BVH_VISITED(), true)) \
-                    : ((c).size -= 1u, (node) = (c).stack[(c).size], BVH_VISITED(), true))
+    ((c).size == 0u \
+         ? ((c).next >= (c).end ? false \
+                                : ((node) = BVH_TILE_NODE((c).next) & ~BVH_TILE_WHOLE, \
+                                   (c).whole = (BVH_TILE_NODE((c).next) & BVH_TILE_WHOLE) != 0u, (c).next += 1u, \
+                                   BVH_VISITED(), true)) \
+         : ((c).size -= 1u, (node) = (c).stack[(c).size], (c).whole = false, BVH_VISITED(), true))
 #else
 #define bvh_cursor_next(c, node) \
     ((c).size == 0u ? false : ((c).size -= 1u, (node) = (c).stack[(c).size], BVH_VISITED(), true))
@@ -112,6 +122,9 @@ BvhCursor bvh_cursor_begin(uint sphere_count) {
     ((c).size + 2u > uint(BVH_STACK_SIZE) \
          ? ((c).overflowed = true, false) \
          : ((c).stack[(c).size] = (right), (c).stack[(c).size + 1u] = (left), (c).size += 2u, true))
+
+// Whether the node last popped must be visited whole (a list entry of the tile's level of detail).
+#define bvh_cursor_whole(c) ((c).whole)
 
 bool bvh_is_leaf(BvhNode n) {
     return n.left == BVH_INVALID;

@@ -27,7 +27,7 @@ bool bvh_cut(uint sphere_count, vec4 receiver, float sin_theta_max, vec3 apex, v
             continue;
         }
 #endif
-        if (bvh_is_leaf(n) || bvh_subtends_less_than(receiver, s, sin_theta_max)
+        if (bvh_is_leaf(n) || bvh_cursor_whole(c) || bvh_subtends_less_than(receiver, s, sin_theta_max)
             || !bvh_cursor_push_children(c, n.left, n.right)) {
             BVH_CUT_VISIT(v, s);
         }

@@ -238,7 +238,7 @@ void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, u
         vec4 s = bvh_sphere(nd);
         ISG_COUNT(1, 1);
         if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
-        if (!bvh_is_leaf(nd)) {
+        if (!bvh_is_leaf(nd) && !bvh_cursor_whole(cur)) {
             // Always descend while p is inside the node (its angular radius is then π).
             float psi = sphere_subtended_half_angle(p, s);
             if (psi >= take_whole && bvh_cursor_push_children(cur, nd.left, nd.right)) continue;
@@ -293,7 +293,7 @@ void isg_mark_traversed(IsgGrid g, vec3 p, vec3 n, float take_whole, uint sphere
         vec4 s = bvh_sphere(nd);
         ISG_COUNT(0, 1);
         if (!bvh_cone_hits(p, g.z, g.cone, s)) continue;
-        if (!bvh_is_leaf(nd)) {
+        if (!bvh_is_leaf(nd) && !bvh_cursor_whole(cur)) {
             float psi = sphere_subtended_half_angle(p, s);
             if (psi >= take_whole && bvh_cursor_push_children(cur, nd.left, nd.right)) continue;
         }

@@ -60,17 +60,26 @@ fn tile_lists_render_the_same_image_as_the_root_and_so_does_their_fallback() {
     g.shutdown().expect("clean shutdown");
 }
 
-/// The lists the GPU builds have the lengths the f64 twin gives from the same G-buffer and BVH.
+/// The lists the GPU builds have the lengths the f64 twin gives from the same G-buffer and BVH, without and with
+/// the level of detail.
 #[test]
 fn gpu_tile_lists_match_the_twin() {
     let g = gpu();
     let scene = crowd(4);
-    let technique = "isg";
-    let settings = RenderSettings { width: W, height: H, technique: technique.into(), ..Default::default() };
-    let (_, receivers, bvh) = engine_tests::render_with_bvh(&g, &scene, settings);
-    let (_, counts) = frame(&g, &scene, technique);
+    for lod_deg in [0.0f64, 5.0] {
+        twin_case(&g, &scene, lod_deg);
+    }
+    g.shutdown().expect("clean shutdown");
+}
+
+fn twin_case(g: &engine::gpu::Gpu, scene: &Scene, lod_deg: f64) {
+    let technique = format!("isg:tile_lod={lod_deg}");
+    let settings = RenderSettings { width: W, height: H, technique: technique.clone(), ..Default::default() };
+    let (_, receivers, bvh) = engine_tests::render_with_bvh(g, scene, settings);
+    let (_, counts) = frame(g, scene, &technique);
     let o = engine::passes::shade::isg::IsgOptions::default();
     let sin_t = engine::passes::shade::tiles::sin_take_whole(engine::passes::shade::isg::take_whole_bound(&o)) as f64;
+    let sin_lod = lod_deg.to_radians().sin();
     let nodes: Vec<cpu::Node> = bvh
         .nodes
         .iter()
@@ -89,16 +98,34 @@ fn gpu_tile_lists_match_the_twin() {
             .filter_map(|i| receivers[i].map(|(p, n, _)| (p.to_array(), n.to_array())))
             .collect();
         let Some(b) = cpu::bounds(&inside) else { continue };
-        let list = cpu::tile_list(&nodes, &b, sin_t, 512).expect("fits");
+        let list = cpu::tile_list(&nodes, &b, sin_t, sin_lod, 512).expect("fits");
         tiles += 1;
         sum += list.len() as u64;
         max = max.max(list.len() as u64);
     }
     let mean = sum as f64 / tiles as f64;
-    eprintln!("twin: {tiles} tiles, mean {mean:.2}, longest {max}; gpu: {}", counts.line());
+    eprintln!("tile_lod={lod_deg}: twin: {tiles} tiles, mean {mean:.2}, longest {max}; gpu: {}", counts.line());
     assert_eq!(counts.tiles, tiles);
     // The shader's rounding margins (cull.comp) cull a little less and open a little less: a node or two apart.
     assert!((counts.list_mean - mean).abs() <= 0.05 * mean + 0.5, "gpu {} vs twin {mean}", counts.list_mean);
     assert!(counts.list_max.abs_diff(max) <= 2, "gpu {} vs twin {max}", counts.list_max);
+}
+
+/// The level of detail (tile_lod, an approximation) tests fewer nodes per pixel than the exact lists and keeps the
+/// image close to them on a crowd, with every value finite.
+#[test]
+fn the_level_of_detail_tests_fewer_nodes_and_stays_close() {
+    let g = gpu();
+    let scene = crowd(16);
+    for t in ["isg", "shexp:cluster=0", "lobes"] {
+        let sep = if t.contains(':') { "," } else { ":" };
+        let (exact, c_exact) = frame(&g, &scene, t);
+        let (lod, c_lod) = frame(&g, &scene, &format!("{t}{sep}tile_lod=5"));
+        engine_tests::assert_finite(&lod, t);
+        let e = engine_tests::relative_rmse(&lod, &exact, |_| true);
+        eprintln!("{t}: tile_lod=5 vs exact: relative RMSE {:.3} %; exact {}; lod {}", 100.0 * e, c_exact.line(), c_lod.line());
+        assert!(c_lod.pixel_mean < c_exact.pixel_mean, "{t}: {c_lod:?} vs {c_exact:?}");
+        assert!(e < 0.03, "{t}: tile_lod=5 moved the image by {:.2} %", 100.0 * e);
+    }
     g.shutdown().expect("clean shutdown");
 }

@@ -382,7 +382,7 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float corner, float cells) {
         BvhNode node = bvh_nodes[v];
         vec4 s = bvh_sphere(node);
         if (!bvh_cone_hits(p, axis, corner, s)) continue;
-        if (bvh_is_leaf(node) || (cells > 0.0 && lobes_node_is_small(p, axis, s, cells, corner))) {
+        if (bvh_is_leaf(node) || bvh_cursor_whole(c) || (cells > 0.0 && lobes_node_is_small(p, axis, s, cells, corner))) {
             lobes_light_visit(s);
         } else if (!bvh_cursor_push_children(c, node.left, node.right)) {
             // Never on the LBVH (bvh.glsl) with this stack: taken whole (conservative) and counted.

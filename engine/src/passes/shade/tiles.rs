@@ -41,23 +41,38 @@ pub const TILE_CAP_OPTION: OptionSpec = OptionSpec {
     help: "tiles=on: the longest start list a tile keeps; a tile with more falls back to traversing from the root",
 };
 
+/// The tiles' level of detail: an approximation, off by default.
+pub const TILE_LOD_OPTION: OptionSpec = OptionSpec {
+    key: "tile_lod",
+    aliases: &[],
+    kind: Kind::Float { min: 0.0, max: 30.0, min_open: false, max_open: false },
+    default: Some("0"),
+    help: "tiles=on: a BVH node subtending less than this half-angle (degrees) from every receiver of a tile is one blocker for the whole tile (an approximation that changes the image; 0: off, exact)",
+};
+
 /// The tile options of one technique.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TileOptions {
     pub on: bool,
     pub capacity: u32,
+    /// The level of detail's half-angle in degrees (0: off).
+    pub lod_deg: f64,
 }
 
 impl Default for TileOptions {
     fn default() -> Self {
-        Self { on: true, capacity: 512 }
+        Self { on: true, capacity: 512, lod_deg: 0.0 }
     }
 }
 
 impl TileOptions {
     /// From options parsed against a schema holding [`TILES_OPTION`] and [`TILE_CAP_OPTION`].
     pub fn from_options(o: &Options) -> Self {
-        Self { on: o.choice("tiles") != "off", capacity: o.int("tile_cap").clamp(1, 4096) as u32 }
+        Self {
+            on: o.choice("tiles") != "off",
+            capacity: o.int("tile_cap").clamp(1, 4096) as u32,
+            lod_deg: o.float("tile_lod").clamp(0.0, 30.0),
+        }
     }
 
     /// The shader define of the technique's pipelines: `BVH_TILES` when on (read only by the pixel variant).
@@ -207,7 +222,9 @@ impl BlockerTiles {
                 // The record stride, read by every pixel (tiles.glsl): written before the pass.
                 rec.fill_buffer(list, stride as u32);
                 rec.barrier();
-                let push: [u32; 5] = [blockers.sphere_count, sin_take_whole.to_bits(), stride as u32, w, h];
+                let sin_lod = self.options.lod_deg.to_radians().sin() as f32;
+                let push: [u32; 6] =
+                    [blockers.sphere_count, sin_take_whole.to_bits(), stride as u32, w, h, sin_lod.to_bits()];
                 rec.dispatch(
                     pipeline,
                     &[
@@ -360,8 +377,21 @@ pub mod cpu {
         r >= sin_t * (dot(d, d).sqrt() + b.radius)
     }
 
-    /// The tile's start list (root 0), depth first, left first; `None` when it would exceed `capacity`.
-    pub fn tile_list(nodes: &[Node], b: &TileBounds, sin_t: f64, capacity: usize) -> Option<Vec<u32>> {
+    /// Whether node (c, r) subtends less than asin(sin_lod) from every point within the bounds (the level of
+    /// detail's "take whole").
+    pub fn taken_whole(b: &TileBounds, c: [f64; 3], r: f64, sin_lod: f64) -> bool {
+        let d = sub(c, b.center);
+        let dl = dot(d, d).sqrt();
+        dl > b.radius && r < sin_lod * (dl - b.radius)
+    }
+
+    /// A list entry's "take whole" mark (BVH_TILE_WHOLE in shaders-glsl/common/bvh.glsl).
+    pub const WHOLE: u32 = 0x8000_0000;
+
+    /// The tile's start list (root 0), depth first, left first; `None` when it would exceed `capacity`. With
+    /// `sin_lod` > 0, internal nodes subtending less than its angle from the whole tile are listed marked
+    /// [`WHOLE`].
+    pub fn tile_list(nodes: &[Node], b: &TileBounds, sin_t: f64, sin_lod: f64, capacity: usize) -> Option<Vec<u32>> {
         let mut out = Vec::new();
         let mut stack = if nodes.is_empty() { vec![] } else { vec![0u32] };
         while let Some(v) = stack.pop() {
@@ -370,6 +400,12 @@ pub mod cpu {
                 continue;
             }
             match n.children {
+                Some(_) if taken_whole(b, n.center, n.radius, sin_lod) => {
+                    if out.len() >= capacity {
+                        return None;
+                    }
+                    out.push(v | WHOLE);
+                }
                 Some((l, r)) if opened(b, n.center, n.radius, sin_t) => {
                     stack.push(r);
                     stack.push(l);
@@ -413,9 +449,13 @@ pub mod cpu {
                 leaf([15.2, 1.0, 0.0], 0.1),
             ];
             let sin_t = 0.1f64;
-            assert_eq!(tile_list(&nodes, &b, sin_t, 8), Some(vec![3, 2]), "4 culled, 1 and the root opened");
-            assert_eq!(tile_list(&nodes, &b, sin_t, 1), None);
-            assert_eq!(tile_list(&nodes, &b, 1.0, 8), Some(vec![1, 2]), "only the root holds the whole tile");
+            assert_eq!(tile_list(&nodes, &b, sin_t, 0.0, 8), Some(vec![3, 2]), "4 culled, 1 and the root opened");
+            assert_eq!(tile_list(&nodes, &b, sin_t, 0.0, 1), None);
+            assert_eq!(tile_list(&nodes, &b, 1.0, 0.0, 8), Some(vec![1, 2]), "only the root holds the whole tile");
+            // A level of detail of 5°: node 2 (0.2 at 14.5 from the tile) is taken whole, node 1 (around it) not.
+            let lod = 5f64.to_radians().sin();
+            assert_eq!(tile_list(&nodes, &b, 1.0, lod, 8), Some(vec![1, 2 | WHOLE]));
+            assert_eq!(tile_list(&nodes, &b, sin_t, lod, 8), Some(vec![3, 2 | WHOLE]));
         }
 
         /// Spread normals (opposite faces in one tile) cull nothing above either face.

@@ -127,6 +127,7 @@ pub const OPTIONS: &[OptionSpec] = &[
     crate::passes::shade::env_lights_option("off"),
     crate::passes::shade::tiles::TILES_OPTION,
     crate::passes::shade::tiles::TILE_CAP_OPTION,
+    crate::passes::shade::tiles::TILE_LOD_OPTION,
 ];
 
 impl IsgOptions {

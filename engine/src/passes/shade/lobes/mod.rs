@@ -179,6 +179,7 @@ pub const OPTIONS: &[OptionSpec] = &[
     super::env_lights_option("on"),
     super::tiles::TILES_OPTION,
     super::tiles::TILE_CAP_OPTION,
+    super::tiles::TILE_LOD_OPTION,
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `LOBES_PHASE` k in shade.glsl.
