@@ -21,7 +21,8 @@
 // (axis a, half-angle β) of its shading normals. For a node (c, R), d = c − c_t:
 //   max over the tile of (c − p)·n ≤ |d| cos(max(∠(d, a) − β, 0)) + r_t   (cull when that is ≤ −R),
 //   max over the tile of |c − p|  ≤ |d| + r_t                               (open when R ≥ sin T of that),
-//   min over the tile of |c − p|  ≥ |d| − r_t          (tile_lod: listed whole when R < sin θ_lod of that).
+//   min over the tile of |c − p|  ≥ |d| − r_t          (tile_lod: listed whole when R < sin θ_lod of that;
+//                                                        reach: culled when that minus R is past the reach).
 // The level of detail is the one approximation here (option tile_lod, off by default): it changes the image.
 layout(local_size_x = 16, local_size_y = 16) in;
 #include "../common/bvh.glsl"
@@ -42,6 +43,7 @@ layout(push_constant) uniform TilePush {
     uint width;
     uint height;
     float sin_lod;         // sin θ_lod of option tile_lod (0: off)
+    float reach;           // option reach (common/bvh.glsl; 0: off)
 } pc;
 
 const uint TILE = 16u;
@@ -124,6 +126,8 @@ void main() {
         float ang = dl > 0.0 ? acos(clamp(dot(d, axis) / dl, -1.0, 1.0)) : 0.0;
         float reach = dl * cos(min(max(ang - beta, 0.0), TILE_PI)) + rt;
         if (reach + r < -1e-4 * (dl + rt + r)) continue;
+        // Bounded reach (option reach, an approximation): beyond it from every receiver of the tile.
+        if (pc.reach > 0.0 && dl - rt - r >= pc.reach * (1.0 + 1e-4)) continue;
         // Level of detail (tile_lod > 0, an approximation): a node subtending less than θ_lod from every receiver
         // of the tile is listed marked whole, and every pixel takes it as one blocker.
         if (!bvh_is_leaf(nd) && dl > rt && r < pc.sin_lod * (dl - rt)) {

@@ -134,6 +134,24 @@ vec4 bvh_sphere(BvhNode n) {
     return vec4(n.center, n.radius);
 }
 
+// Bounded reach (option `reach` of isg, lobes and shexp; an approximation, 0: off; the technique sets bvh_reach
+// from its parameters before its traversals): a blocker sphere whose centre lies d from the receiver blocks with
+// its radius scaled by clamp((reach − d) / (BVH_REACH_FADE reach), 0, 1), so that it fades out continuously (no
+// pop as a character walks past the reach) and is gone from d = reach on; a node with d − R ≥ reach holds only
+// spheres with d ≥ reach and is dropped with its subtree. Unreal's capsule shadows bound their reach the same way
+// (r.CapsuleMaxDirectOcclusionDistance).
+float bvh_reach = 0.0;
+const float BVH_REACH_FADE = 0.25;
+
+bool bvh_beyond_reach(vec3 p, vec4 s) {
+    return bvh_reach > 0.0 && distance(p, s.xyz) - s.w >= bvh_reach;
+}
+
+vec4 bvh_reach_fade(vec3 p, vec4 s) {
+    if (!(bvh_reach > 0.0)) return s;
+    return vec4(s.xyz, s.w * clamp((bvh_reach - distance(p, s.xyz)) / (BVH_REACH_FADE * bvh_reach), 0.0, 1.0));
+}
+
 // "Subtends less than theta_max" cut test (SHEXP Eq. 36) with sin(theta_max) precomputed, from every
 // point of the receiver sphere (radius 0 for a point). A node passing it may be taken whole.
 // Twin: engine_blockers::geom::subtends_less_than.

@@ -19,7 +19,7 @@ bool bvh_cut(uint sphere_count, vec4 receiver, float sin_theta_max, vec3 apex, v
     while (bvh_cursor_next(c, v)) {
         BvhNode n = bvh_nodes[v];
         vec4 s = bvh_sphere(n);
-        if (!bvh_cone_hits(apex, axis, half_angle, s)) {
+        if (!bvh_cone_hits(apex, axis, half_angle, s) || bvh_beyond_reach(receiver.xyz, s)) {
             continue;
         }
 #ifdef BVH_CUT_DROP

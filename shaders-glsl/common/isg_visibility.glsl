@@ -212,6 +212,7 @@ int isg_cap_count = 0;
 int isg_caps_dropped = 0;
 
 void isg_add_blocker(vec3 p, vec3 n, vec4 s) {
+    s = bvh_reach_fade(p, s);
     vec4 blk;
     if (!blocker_for_receiver(p, n, s, blk) || blk.w <= 0.0) return;
     vec3 d = blk.xyz - p;
@@ -237,7 +238,7 @@ void isg_gather(vec3 p, vec3 n, vec3 axis, float half_angle, float take_whole, u
         BvhNode nd = ISG_BVH_NODE(node);
         vec4 s = bvh_sphere(nd);
         ISG_COUNT(1, 1);
-        if (!bvh_cone_hits(p, axis, half_angle, s)) continue;
+        if (!bvh_cone_hits(p, axis, half_angle, s) || bvh_beyond_reach(p, s)) continue;
         if (!bvh_is_leaf(nd) && !bvh_cursor_whole(cur)) {
             // Always descend while p is inside the node (its angular radius is then π).
             float psi = sphere_subtended_half_angle(p, s);
@@ -292,13 +293,13 @@ void isg_mark_traversed(IsgGrid g, vec3 p, vec3 n, float take_whole, uint sphere
         BvhNode nd = ISG_BVH_NODE(node);
         vec4 s = bvh_sphere(nd);
         ISG_COUNT(0, 1);
-        if (!bvh_cone_hits(p, g.z, g.cone, s)) continue;
+        if (!bvh_cone_hits(p, g.z, g.cone, s) || bvh_beyond_reach(p, s)) continue;
         if (!bvh_is_leaf(nd) && !bvh_cursor_whole(cur)) {
             float psi = sphere_subtended_half_angle(p, s);
             if (psi >= take_whole && bvh_cursor_push_children(cur, nd.left, nd.right)) continue;
         }
         vec4 blk;
-        if (!blocker_for_receiver(p, n, s, blk) || blk.w <= 0.0) continue;
+        if (!blocker_for_receiver(p, n, bvh_reach_fade(p, s), blk) || blk.w <= 0.0) continue;
         vec3 d = blk.xyz - p;
         float dist = length(d);
         if (dist <= 0.0) continue;

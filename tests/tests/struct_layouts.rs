@@ -129,12 +129,12 @@ fn host_structs() -> Vec<HostLayout> {
         // technique `isg`
         layout_check!(GpuIsgParams, "shade/isg/pixel.comp", struct "IsgParams", [
             lobe_count, side, evaluator, sphere_count, log_epsilon, node_threshold, cosine_lambda, cosine_mu,
-            gather_take_whole, diffuse_mode, pad0, pad1
+            gather_take_whole, diffuse_mode, reach, pad1
         ]),
         layout_check!(GpuSgLobe, "shade/isg/pixel.comp", struct "EnvLobe", [axis, lambda, mu, pad0]),
         layout_check!(GpuLobesParams, "shade/lobes/pixel.comp", struct "LobesParams", [
             sphere_count, depth, conservative, threshold, weight, extent, light_mode, energy_scale, split, sharpen,
-            take_whole, coarsen, light_weights, env_lobe_count, budget, env_black, light_alpha
+            take_whole, coarsen, light_weights, env_lobe_count, budget, env_black, light_alpha, reach
         ]),
         // read only by the env=lobes variant (LOBES_ENV_K > 0)
         engine::gpu::layout_check::HostLayout {

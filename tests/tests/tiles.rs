@@ -130,3 +130,28 @@ fn the_level_of_detail_tests_fewer_nodes_and_stays_close() {
     }
     g.shutdown().expect("clean shutdown");
 }
+
+/// The bounded reach (option reach, an approximation) drops far blockers: fewer nodes per pixel than unbounded, the
+/// same image with the tile lists as without them (the tile pass culls only what lies beyond the reach of its
+/// whole tile), and every value finite.
+#[test]
+fn the_reach_cuts_the_work_and_the_tiles_keep_it_exact() {
+    let g = gpu();
+    let scene = crowd(16);
+    for t in ["isg", "shexp:cluster=0", "shexp", "lobes"] {
+        let sep = if t.contains(':') { "," } else { ":" };
+        let (full, c_full) = frame(&g, &scene, t);
+        let (near, c_near) = frame(&g, &scene, &format!("{t}{sep}reach=2"));
+        let (near_off, _) = frame(&g, &scene, &format!("{t}{sep}reach=2,tiles=off"));
+        engine_tests::assert_finite(&near, t);
+        let e = engine_tests::relative_rmse(&near, &full, |_| true);
+        eprintln!("{t}: reach=2 vs unbounded: relative RMSE {:.3} %; unbounded {}; reach {}", 100.0 * e, c_full.line(), c_near.line());
+        let d = largest_difference(&near, &near_off);
+        assert!(d <= 1e-4, "{t}: with reach=2, tiles=on differs from tiles=off by {d:.2e}");
+        if t != "shexp" {
+            assert!(c_near.pixel_mean < c_full.pixel_mean, "{t}: {c_near:?} vs {c_full:?}");
+        }
+        assert!(e > 0.0, "{t}: reach=2 changed nothing on a 16-character crowd");
+    }
+    g.shutdown().expect("clean shutdown");
+}

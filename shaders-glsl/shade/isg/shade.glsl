@@ -42,7 +42,7 @@ struct IsgParams {
     float cosine_mu;          // the cosine SG's μ
     float gather_take_whole;  // the shared gather's node-size threshold (radians), from prepare
     uint diffuse_mode;        // 0 sg, 1 ratio, 2 map
-    uint pad0;
+    float reach;              // bounded reach (common/bvh.glsl), scene units; 0: off
     uint pad1;
 };
 layout(std430, binding = 12) readonly buffer IsgParamsBuf { IsgParams isg; };
@@ -323,6 +323,7 @@ vec3 shade_point_radiance(ShadePoint sp) {
     st.log_epsilon = isg.log_epsilon;
     st.node_threshold = isg.node_threshold;
     uint spheres = isg.sphere_count;
+    bvh_reach = isg.reach;
     float cos_lambda = isg.cosine_lambda;
     float cos_mu = isg.cosine_mu;
     vec3 n = sp.normal;

@@ -80,6 +80,7 @@ struct LobesParams {
     uint budget;             // work one mask may spend before it stops refining (option budget)
     uint env_black;          // 1: the environment is black everywhere (its term and mask are skipped)
     uint light_alpha;        // 1: the lights' masks take the receiver rules with α too (option light_rule)
+    float reach;             // bounded reach (common/bvh.glsl), scene units; 0: off
 };
 layout(std430, binding = 14) readonly buffer LobesParamsBuf { LobesParams lp; };
 // [0] receivers shaded, [1] receivers whose blocker list overflowed, [2] lobe products computed,
@@ -314,6 +315,7 @@ uint lobes_width_bin(float sb) {
 }
 
 void lobes_light_visit(vec4 s) {
+    s = bvh_reach_fade(g_p, s);
     vec4 b;
     if (!(g_alpha_rule ? blocker_for_receiver_alpha(g_p, g_n, s, b) : blocker_for_receiver(g_p, g_n, s, b))) return;
     if (!(b.w > 0.0)) return;
@@ -381,7 +383,7 @@ void lobes_collect(vec3 p, vec3 n, vec3 axis, float corner, float cells) {
     while (bvh_cursor_next(c, v)) {
         BvhNode node = bvh_nodes[v];
         vec4 s = bvh_sphere(node);
-        if (!bvh_cone_hits(p, axis, corner, s)) continue;
+        if (!bvh_cone_hits(p, axis, corner, s) || bvh_beyond_reach(p, s)) continue;
         if (bvh_is_leaf(node) || bvh_cursor_whole(c) || (cells > 0.0 && lobes_node_is_small(p, axis, s, cells, corner))) {
             lobes_light_visit(s);
         } else if (!bvh_cursor_push_children(c, node.left, node.right)) {
@@ -805,6 +807,7 @@ vec3 lobes_env_mask(vec3 p, vec3 n, Lobe rl[LOBES_MAX_R], float u_lum, out bool 
 vec3 shade_point(ShadePoint sp) {
     vec3 n = sp.normal;
     vec3 p = sp.position;
+    bvh_reach = lp.reach;
     uint products = 0u, pruned = 0u, leaves = 0u, overflow = 0u;
     g_dropped_env = 0.0;
     g_dropped_light = 0.0;

@@ -34,7 +34,7 @@ struct ShexpParams {
     uint pixel_world;      // 1: per pixel, the vertex clusters (pixel_clusters=world)
     uint alpha_scale;      // 1: the §6.2 rule with the radius scale α (blocker_for_receiver_alpha)
     uint bake;             // 1: a receiver whose cluster's cut did not change keeps its g (bake=on)
-    uint pad3;
+    float reach;           // bounded reach (common/bvh.glsl), scene units; 0: off
     uint pad4;
     uint pad5;
     vec4 h_star[2];        // irradiance weighting H*_l (SHEXP Eq. 9), l = 0..7

@@ -136,6 +136,7 @@ void main() {
     if (c >= cluster_total()) return;
     uint tid = gl_LocalInvocationID.x;
     uint t = cluster_side();
+    bvh_reach = shx.reach;
     uint items = t * t;
 
     // 1. Bounding box, then the bounding sphere about its centre and the receiver nearest the centre.
@@ -217,6 +218,8 @@ void main() {
                 BvhNode nd = bvh_nodes[v];
                 vec4 s = bvh_sphere(nd);
                 if (s.w < shx.sin_theta_min * (distance(centre, s.xyz) - radius)) continue;
+                // Bounded reach (bvh.glsl): beyond it from every receiver of the cluster.
+                if (bvh_reach > 0.0 && distance(centre, s.xyz) - s.w - radius >= bvh_reach) continue;
                 bool leaf = bvh_is_leaf(nd);
                 if (leaf || bvh_subtends_less_than(receiver, s, sin_max)
                     || !bvh_cursor_push_children(cur, nd.left, nd.right)) {

@@ -60,6 +60,7 @@ bool shexp_rule(vec4 s, out vec4 b) {
 }
 
 void shexp_visit(vec4 s) {
+    s = bvh_reach_fade(g_p, s);
     vec4 b;
     if (!shexp_rule(s, b)) return;
     float u = shn_sphere_u(g_p, b);
@@ -86,7 +87,7 @@ void shexp_visit(vec4 s) {
 // (W = 1) get there unless θ_max exceeds θ_clip, as a node taken whole subtends less than θ_max.
 void shexp_visit_weighted(ClusterEntry ce) {
     vec4 b;
-    if (!shexp_rule(ce.sphere, b)) return;
+    if (!shexp_rule(bvh_reach_fade(g_p, ce.sphere), b)) return;
     float u = shn_sphere_u(g_p, b);
     if (!(u > 0.0)) return;
     if (u > shx.large_u && g_large_count < uint(SHEXP_MAX_LARGE)) {
@@ -234,6 +235,7 @@ void shexp_visibility(vec3 p, vec3 n, out float g[SHN_C]) {
     g_n = n;
     g_blockers = 0u;
     g_large_count = 0u;
+    bvh_reach = shx.reach;
     if (shx.sphere_count > 0u) {
         // cluster > 0: the blockers of the cluster's cut with their ratio vectors, unless it overflowed.
         bool cut_done = false;

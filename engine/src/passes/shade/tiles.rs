@@ -50,6 +50,15 @@ pub const TILE_LOD_OPTION: OptionSpec = OptionSpec {
     help: "tiles=on: a BVH node subtending less than this half-angle (degrees) from every receiver of a tile is one blocker for the whole tile (an approximation that changes the image; 0: off, exact)",
 };
 
+/// The bounded reach of the blocker traversals, per pixel and per vertex: an approximation, off by default.
+pub const REACH_OPTION: OptionSpec = OptionSpec {
+    key: "reach",
+    aliases: &[],
+    kind: Kind::Float { min: 0.0, max: 1e6, min_open: false, max_open: false },
+    default: Some("0"),
+    help: "blockers farther than this from a receiver (scene units, centre distance) cast no shadow on it, fading out over the last quarter (an approximation, as Unreal's capsule shadows' reach; 0: unbounded)",
+};
+
 /// The tile options of one technique.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TileOptions {
@@ -57,11 +66,14 @@ pub struct TileOptions {
     pub capacity: u32,
     /// The level of detail's half-angle in degrees (0: off).
     pub lod_deg: f64,
+    /// The bounded reach (option `reach`, scene units; 0: off). Applies per pixel and per vertex, with or
+    /// without tiles; the tile pass also culls what lies beyond it from the whole tile.
+    pub reach: f64,
 }
 
 impl Default for TileOptions {
     fn default() -> Self {
-        Self { on: true, capacity: 512, lod_deg: 0.0 }
+        Self { on: true, capacity: 512, lod_deg: 0.0, reach: 0.0 }
     }
 }
 
@@ -72,6 +84,7 @@ impl TileOptions {
             on: o.choice("tiles") != "off",
             capacity: o.int("tile_cap").clamp(1, 4096) as u32,
             lod_deg: o.float("tile_lod").clamp(0.0, 30.0),
+            reach: o.float("reach").max(0.0),
         }
     }
 
@@ -223,8 +236,16 @@ impl BlockerTiles {
                 rec.fill_buffer(list, stride as u32);
                 rec.barrier();
                 let sin_lod = self.options.lod_deg.to_radians().sin() as f32;
-                let push: [u32; 6] =
-                    [blockers.sphere_count, sin_take_whole.to_bits(), stride as u32, w, h, sin_lod.to_bits()];
+                let reach = self.options.reach as f32;
+                let push: [u32; 7] = [
+                    blockers.sphere_count,
+                    sin_take_whole.to_bits(),
+                    stride as u32,
+                    w,
+                    h,
+                    sin_lod.to_bits(),
+                    reach.to_bits(),
+                ];
                 rec.dispatch(
                     pipeline,
                     &[

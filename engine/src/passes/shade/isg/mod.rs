@@ -81,7 +81,8 @@ pub struct GpuIsgParams {
     pub gather_take_whole: f32,
     /// [`diffuse_code`]: 0 sg, 1 ratio, 2 map.
     pub diffuse_mode: u32,
-    pub pad0: u32,
+    /// The bounded reach (option `reach`, scene units; 0: off).
+    pub reach: f32,
     pub pad1: u32,
 }
 
@@ -168,6 +169,7 @@ impl Technique for Isg {
             cosine_mu: COSINE_SG_MU as f32,
             gather_take_whole: gather_take_whole(&fitted, o) as f32,
             diffuse_mode: diffuse_code(o.diffuse),
+            reach: o.tiles.reach as f32,
             ..GpuIsgParams::default()
         };
         let [env_sgs, params] = crate::resources::make_buffers(

@@ -128,6 +128,7 @@ pub const OPTIONS: &[OptionSpec] = &[
     crate::passes::shade::tiles::TILES_OPTION,
     crate::passes::shade::tiles::TILE_CAP_OPTION,
     crate::passes::shade::tiles::TILE_LOD_OPTION,
+    crate::passes::shade::tiles::REACH_OPTION,
 ];
 
 impl IsgOptions {

@@ -180,6 +180,7 @@ pub const OPTIONS: &[OptionSpec] = &[
     super::tiles::TILES_OPTION,
     super::tiles::TILE_CAP_OPTION,
     super::tiles::TILE_LOD_OPTION,
+    super::tiles::REACH_OPTION,
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `LOBES_PHASE` k in shade.glsl.
@@ -374,6 +375,8 @@ pub struct GpuLobesParams {
     pub env_black: u32,
     /// 1: the lights' masks take the receiver rules with α ([`LightRule`]).
     pub light_alpha: u32,
+    /// The bounded reach (option `reach`, scene units; 0: off).
+    pub reach: f32,
 }
 
 /// `EnvLobe` in shaders-glsl/shade/lobes/shade.glsl (std430): one environment cosine lobe
@@ -433,6 +436,7 @@ pub fn params(o: &LobesOptions, sphere_count: u32) -> GpuLobesParams {
         budget: o.budget,
         env_black: 0,
         light_alpha: u32::from(o.light_rule == LightRule::Alpha),
+        reach: o.tiles.reach as f32,
     }
 }
 

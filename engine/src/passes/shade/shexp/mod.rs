@@ -162,6 +162,7 @@ pub const OPTIONS: &[OptionSpec] = &[
     super::tiles::TILES_OPTION,
     super::tiles::TILE_CAP_OPTION,
     super::tiles::TILE_LOD_OPTION,
+    super::tiles::REACH_OPTION,
 ];
 
 /// The values of option `phase`, in order: phase k (1-based) is `SHEXP_PHASE` k in shade.glsl.
@@ -354,7 +355,9 @@ pub struct GpuShexpParams {
     /// 1: reuse the visibility of unmoved receivers of unchanged clusters (`bake=on`; per pixel only where
     /// the records fit, which the shader checks against the records buffer's length).
     pub bake: u32,
-    pub pad: [u32; 3],
+    /// The bounded reach (option `reach`, scene units; 0: off).
+    pub reach: f32,
+    pub pad: [u32; 2],
     pub h_star: [f32; 8],
     pub window: [f32; 8],
 }
@@ -588,7 +591,8 @@ pub fn params(o: &ShexpOptions, sphere_count: u32, ol_norm_max: f64, gamma_count
         pixel_world: o.world_pixel_clusters as u32,
         alpha_scale: o.alpha_scale as u32,
         bake: (o.bake && o.cluster_side() > 0) as u32,
-        pad: [0; 3],
+        reach: o.tiles.reach as f32,
+        pad: [0; 2],
         h_star,
         window,
     }
