@@ -28,7 +28,10 @@ fn frame(gpu: &engine::gpu::Gpu, scene: &Scene, technique: &str) -> (Vec<f32>, T
 
 /// The largest difference between two images relative to the larger value (0 for equal images).
 fn largest_difference(a: &[f32], b: &[f32]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (*x as f64 - *y as f64).abs() / (x.abs().max(y.abs()) as f64).max(1e-3)).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (*x as f64 - *y as f64).abs() / (x.abs().max(y.abs()) as f64).max(1e-3))
+        .fold(0.0, f64::max)
 }
 
 /// tiles=on (the default), tiles=off and tile_cap=1 (every tile falls back to the root) render the same crowd,
@@ -53,7 +56,10 @@ fn tile_lists_render_the_same_image_as_the_root_and_so_does_their_fallback() {
         assert_eq!(c_on.pixels, c_off.pixels, "{t}");
         if t != "shexp" {
             // shexp's default per pixel reads its receiver clusters' cuts: only their fallback traverses.
-            assert!(c_on.pixel_mean < c_off.pixel_mean, "{t}: the lists did not shorten the traversals: {c_on:?} {c_off:?}");
+            assert!(
+                c_on.pixel_mean < c_off.pixel_mean,
+                "{t}: the lists did not shorten the traversals: {c_on:?} {c_off:?}"
+            );
             assert!((c_full.pixel_mean - c_off.pixel_mean).abs() < 1e-9, "{t}: the fallback is the root traversal");
         }
     }
@@ -124,7 +130,12 @@ fn the_level_of_detail_tests_fewer_nodes_and_stays_close() {
         let (lod, c_lod) = frame(&g, &scene, &format!("{t}{sep}tile_lod=30"));
         engine_tests::assert_finite(&lod, t);
         let e = engine_tests::relative_rmse(&lod, &exact, |_| true);
-        eprintln!("{t}: tile_lod=30 vs exact: relative RMSE {:.3} %; exact {}; lod {}", 100.0 * e, c_exact.line(), c_lod.line());
+        eprintln!(
+            "{t}: tile_lod=30 vs exact: relative RMSE {:.3} %; exact {}; lod {}",
+            100.0 * e,
+            c_exact.line(),
+            c_lod.line()
+        );
         assert!(c_lod.pixel_mean < c_exact.pixel_mean, "{t}: {c_lod:?} vs {c_exact:?}");
         assert!(e < 0.06, "{t}: tile_lod=30 moved the image by {:.2} %", 100.0 * e);
     }
@@ -145,7 +156,12 @@ fn the_reach_cuts_the_work_and_the_tiles_keep_it_exact() {
         let (near_off, _) = frame(&g, &scene, &format!("{t}{sep}reach=2,tiles=off"));
         engine_tests::assert_finite(&near, t);
         let e = engine_tests::relative_rmse(&near, &full, |_| true);
-        eprintln!("{t}: reach=2 vs unbounded: relative RMSE {:.3} %; unbounded {}; reach {}", 100.0 * e, c_full.line(), c_near.line());
+        eprintln!(
+            "{t}: reach=2 vs unbounded: relative RMSE {:.3} %; unbounded {}; reach {}",
+            100.0 * e,
+            c_full.line(),
+            c_near.line()
+        );
         let d = largest_difference(&near, &near_off);
         assert!(d <= 1e-4, "{t}: with reach=2, tiles=on differs from tiles=off by {d:.2e}");
         if t != "shexp" {

@@ -715,7 +715,8 @@ impl Technique for Lobes {
         };
         let env = inputs.environment;
         let blockers = inputs.blockers()?;
-        let tiles = self.tiles.record(rec, "lobes", blockers, &target, sin_take_whole(take_whole_bound(&self.options)))?;
+        let tiles =
+            self.tiles.record(rec, "lobes", blockers, &target, sin_take_whole(take_whole_bound(&self.options)))?;
         let [visits, lists] = tiles.bindings()?;
         self.pipelines.record(
             rec,
