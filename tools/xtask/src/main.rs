@@ -31,8 +31,15 @@ const APT_PACKAGES: &[&str] = &[
     "python3-venv",
 ];
 
+/// The checkout to work on: the one `cargo xtask` runs in (cargo sets CARGO_MANIFEST_DIR for the process it runs),
+/// else the one this binary was built from. A target folder shared by two checkouts can hold an xtask built in the
+/// other one (cargo sees the same sources and does not rebuild it), whose compile-time path would build and test
+/// the other checkout.
 pub(crate) fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
+        .join("../..")
 }
 
 /// The help text: every subcommand with what it does.

@@ -462,7 +462,7 @@ pub mod cpu {
             // Root 0 = {1, 2}; 1 = {3, 4} near and large; 2 far and small (a leaf-like internal node {5, 6}).
             let nodes = vec![
                 Node { center: [0.0, 1.0, 0.0], radius: 20.0, children: Some((1, 2)) },
-                Node { center: [0.5, 1.0, 0.0], radius: 1.5, children: Some((3, 4)) },
+                Node { center: [0.5, 1.0, 0.0], radius: 1.4, children: Some((3, 4)) },
                 Node { center: [15.0, 1.0, 0.0], radius: 0.2, children: Some((5, 6)) },
                 leaf([0.5, 1.0, 0.0], 0.4),
                 leaf([0.5, -3.0, 0.0], 0.5),
