@@ -1,4 +1,4 @@
-//! Blocker tiles (issue 44): the blockers culled once per 16 × 16-pixel screen tile instead of once per pixel,
+//! Blocker tiles: the blockers culled once per 16 × 16-pixel screen tile instead of once per pixel,
 //! for the techniques that traverse the blocker BVH per pixel (`isg`, `lobes`, `shexp`'s per-receiver cut).
 //!
 //! After the G-buffer, `blocker_tiles/cull.comp` builds for each tile a *start list*: a cut of the BVH that
@@ -330,6 +330,35 @@ pub fn sin_take_whole(t: f64) -> f32 {
         1.0
     } else {
         t.max(0.0).sin() as f32
+    }
+}
+
+#[cfg(test)]
+mod option_tests {
+    /// The tile and reach options of every technique that has them refuse bad values with an error naming the key.
+    #[test]
+    fn bad_tile_options_are_errors_naming_the_key() {
+        for t in ["isg", "lobes", "shexp"] {
+            for (kv, key) in [
+                ("tiles=maybe", "tiles"),
+                ("tile_cap=0", "tile_cap"),
+                ("tile_cap=5000", "tile_cap"),
+                ("tile_lod=31", "tile_lod"),
+                ("tile_lod=-1", "tile_lod"),
+                ("reach=-1", "reach"),
+                ("reach=nan", "reach"),
+                ("reach=inf", "reach"),
+            ] {
+                let e = crate::passes::shade::parse_technique(&format!("{t}:{kv}")).err().map(|e| e.to_string());
+                let e = e.unwrap_or_else(|| panic!("{t}:{kv} was accepted"));
+                assert!(e.contains(key), "{t}:{kv}: {e}");
+            }
+            let (_, o) =
+                crate::passes::shade::parse_technique(&format!("{t}:tiles=off,tile_cap=1,tile_lod=30,reach=8"))
+                    .expect("valid tile options");
+            let o = super::TileOptions::from_options(&o);
+            assert_eq!(o, super::TileOptions { on: false, capacity: 1, lod_deg: 30.0, reach: 8.0 });
+        }
     }
 }
 
